@@ -1,0 +1,5 @@
+"""Pieces every chapter script uses: the start-of-run banner."""
+
+from curriculum.common.device import banner
+
+__all__ = ["banner"]

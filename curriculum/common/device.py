@@ -1,0 +1,26 @@
+"""The banner every chapter prints first, so a pasted log says where it ran."""
+
+import platform
+import sys
+
+import numpy as np
+
+# Every chapter has a free tier that runs on any laptop CPU; chapters with a GPU
+# tier name it here. Chapter 3.3 is pure numpy, so it only ever runs on "cpu".
+TIERS = {"cpu": "free"}
+
+
+def banner(chapter: str, device: str = "cpu", stream=None) -> str:
+    """Print and return one line: chapter id, tier and device, Python and numpy versions.
+
+    Nothing here is measured and nothing goes into metrics.json: it is only there so
+    that a log pasted into a forum post says which machine and versions produced it.
+    """
+    if device not in TIERS:
+        raise ValueError(f"unknown device {device!r}; this course knows {sorted(TIERS)}")
+    line = (
+        f"[{chapter}] tier: {TIERS[device]} ({device}) | "
+        f"python {platform.python_version()} | numpy {np.__version__}"
+    )
+    print(line, file=stream or sys.stdout, flush=True)
+    return line
