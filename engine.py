@@ -323,7 +323,7 @@ def record(path: Path, system_name: str, runs: dict) -> str | None:
         partial.unlink(missing_ok=True)
     if stride == 1:
         return None
-    return f"recording keeps every {stride}th of {steps + 1:,} states per integrator (metrics use all)"
+    return f"recording keeps 1 state in {stride} of {steps + 1:,} per integrator, to stay viewable (metrics use all)"
 
 
 def log_path(rr, recording, name, trajectory):

@@ -1,0 +1,96 @@
+"""engine.py as a student runs it: the default run, bad input, long runs, Ctrl-C."""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from conftest import ENGINE, run_engine
+
+
+def test_default_run_prints_banner_first_and_wall_clock_last_and_no_noise(tmp_path):
+    result = run_engine(cwd=tmp_path)  # exactly `python engine.py`, recording included
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("[ch3.3-engine] tier: free (cpu) | python ") and "numpy" in lines[0]
+    assert lines[-1].startswith("wall-clock: ") and lines[-1].endswith(" s")
+    assert "energy drift ordering euler >> semi_implicit(bounded) > rk4: as expected" in result.stdout
+    assert result.stderr == ""
+    assert "warn" not in result.stdout.lower() and "traceback" not in result.stdout.lower()
+    out = tmp_path / "outputs" / "ch3.3-engine"
+    assert sorted(p.name for p in out.iterdir()) == ["engine.rrd", "metrics.json"]
+
+
+def test_two_smoke_runs_write_identical_bytes(tmp_path):
+    for name in ("a", "b"):
+        assert run_engine("--smoke", "--no-rerun", "--out", tmp_path / name).returncode == 0
+    assert (tmp_path / "a" / "metrics.json").read_bytes() == (tmp_path / "b" / "metrics.json").read_bytes()
+
+
+BAD_INPUT = {
+    "zero dt": (["--dt", "0"], "--dt"),
+    "negative dt": (["--dt", "-0.01"], "--dt"),
+    "nan dt": (["--dt", "nan"], "--dt"),
+    "infinite dt": (["--dt", "inf"], "--dt"),
+    "text dt": (["--dt", "fast"], "--dt"),
+    "zero steps": (["--steps", "0"], "--steps"),
+    "too many steps": (["--steps", "10000001"], "--steps"),
+    "negative seed": (["--seed", "-1"], "--seed"),
+    "unknown system": (["--system", "pendulum"], "--system"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_INPUT)
+def test_bad_flag_gets_one_line_exit_2_and_touches_nothing(case, tmp_path):
+    flags, named = BAD_INPUT[case]
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "metrics.json").write_text("previous\n")
+    result = run_engine(*flags, "--out", out, cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stdout == "" and len(result.stderr.splitlines()) == 1 and named in result.stderr
+    assert "Traceback" not in result.stderr
+    assert [p.name for p in out.iterdir()] == ["metrics.json"] and (out / "metrics.json").read_text() == "previous\n"
+
+
+@pytest.mark.parametrize("where", ["is a file", "is under a file"])
+def test_out_that_cannot_hold_files_is_refused(where, tmp_path):
+    blocker = tmp_path / "blocker"
+    blocker.write_text("not a folder\n")
+    out = blocker if where == "is a file" else blocker / "sub" / "dir"
+    result = run_engine("--smoke", "--no-rerun", "--out", out, cwd=tmp_path)
+    assert result.returncode == 2 and len(result.stderr.splitlines()) == 1 and "--out" in result.stderr
+    assert blocker.read_text() == "not a folder\n" and sorted(p.name for p in tmp_path.iterdir()) == ["blocker"]
+
+
+def test_help_states_the_step_limit():
+    result = run_engine("--help")
+    assert result.returncode == 0 and "10,000,000" in result.stdout
+
+
+def test_long_run_shows_progress_on_stderr_and_smoke_stays_quiet(tmp_path):
+    long = run_engine("--integrator", "euler", "--steps", "300000", "--no-rerun", "--out", tmp_path / "long")
+    assert long.returncode == 0 and "100% of 300,000 steps" in long.stderr and "euler" in long.stderr
+    smoke = run_engine("--smoke", "--no-rerun", "--out", tmp_path / "smoke")
+    assert smoke.returncode == 0 and smoke.stderr == ""
+
+
+def test_ctrl_c_leaves_previous_metrics_intact(tmp_path):
+    assert run_engine("--smoke", "--no-rerun", "--out", tmp_path).returncode == 0
+    before = (tmp_path / "metrics.json").read_bytes()
+    proc = subprocess.Popen([sys.executable, str(ENGINE), "--steps", "5000000", "--out", str(tmp_path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # wait until the run is integrating (its first progress report), then press Ctrl-C
+    deadline = time.monotonic() + 60
+    while proc.stderr.read(1) != "%" and time.monotonic() < deadline:
+        pass
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert stderr.strip().splitlines()[-1].startswith("interrupted:") and "Traceback" not in stderr
+    assert (tmp_path / "metrics.json").read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["metrics.json"]
+    json.loads(before)

@@ -1,0 +1,163 @@
+"""The physics: the chapter's published figures, the metrics schema, determinism on any CPU."""
+
+import inspect
+import json
+import os
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import engine
+from conftest import REPO
+
+GOLDEN = REPO / "tests" / "golden"
+
+
+def drift_of(system, integrator, dt=0.01, steps=2000, seed=0):
+    sys_ = engine.build_system(system, np.random.default_rng(seed))
+    _, energies = engine.simulate(engine.INTEGRATORS[integrator], sys_, dt, steps)
+    return engine.energy_drift(energies)
+
+
+def percent(x, digits):
+    """The figure as the chapter prints it: a percentage to `digits` significant digits."""
+    return float(f"{100 * x:.{digits}g}")
+
+
+def test_orbit_reproduces_the_chapter_table():
+    euler, semi, rk4 = (drift_of("orbit", name) for name in ("euler", "semi_implicit", "rk4"))
+    assert (percent(euler["rel_final"], 3), percent(euler["rel_max"], 3)) == (22.1, 22.1)
+    assert (percent(semi["rel_final"], 2), percent(semi["rel_max"], 2)) == (0.0098, 0.032)
+    assert (percent(rk4["rel_final"], 2), percent(rk4["rel_max"], 2)) == (-4.5e-9, 5.1e-9)
+
+
+def test_freefall_reproduces_the_chapter_caveat():
+    assert percent(drift_of("freefall", "euler")["rel_final"], 2) == 9.3
+    assert percent(drift_of("freefall", "semi_implicit")["rel_final"], 2) == -9.3
+
+
+@pytest.mark.parametrize("system", ["orbit", "spring"])
+def test_drift_ordering_holds_for_every_seed(system):
+    for seed in range(5):
+        euler, semi, rk4 = (drift_of(system, name, seed=seed) for name in ("euler", "semi_implicit", "rk4"))
+        assert abs(euler["rel_final"]) > semi["rel_max"] > rk4["rel_max"] > 0
+
+
+def test_seed_jitters_one_initial_condition_per_system():
+    for system, (field, index, low, high) in {"orbit": ("v0", 1, 0.95, 1.05), "spring": ("q0", 0, 0.9, 1.1),
+                                              "freefall": ("v0", 0, 2.5, 3.5)}.items():
+        a = engine.build_system(system, np.random.default_rng(0))
+        b = engine.build_system(system, np.random.default_rng(1))
+        assert low <= a[field][index] <= high and a[field][index] != b[field][index]
+        changed = np.flatnonzero(np.concatenate([a["q0"] != b["q0"], a["v0"] != b["v0"]]))
+        assert len(changed) == 1, f"{system}: the seed should move exactly one number"
+
+
+def test_semi_implicit_moves_position_with_the_new_velocity():
+    sys_ = engine.build_system("spring", np.random.default_rng(0))
+    q, v = sys_["q0"], sys_["v0"]  # v0 = 0: explicit Euler would not move q at all
+    q1, v1 = engine.semi_implicit_step(q, v, sys_["m"], sys_["force"], 0.1)
+    assert np.array_equal(v1, v + 0.1 * (-4.0 * q))
+    assert np.array_equal(q1, q + 0.1 * v1)
+    qe, _ = engine.euler_step(q, v, sys_["m"], sys_["force"], 0.1)
+    assert np.array_equal(qe, q)
+
+
+def test_energy_is_the_same_for_one_state_and_for_a_history():
+    for system in ("orbit", "spring", "freefall"):
+        sys_ = engine.build_system(system, np.random.default_rng(3))
+        traj, energies = engine.simulate(engine.rk4_step, sys_, 0.05, 50)
+        q, v = sys_["q0"].astype(float), sys_["v0"].astype(float)
+        for _ in range(50):
+            q, v = engine.rk4_step(q, v, sys_["m"], sys_["force"], 0.05)
+        assert np.array_equal(q, traj[-1])
+        assert sys_["energy"](q, v) == energies[-1]
+
+
+def test_import_is_free(tmp_path):
+    code = "import sys, engine; print(sorted(m for m in sys.modules if m.split('.')[0] == 'rerun'))"
+    result = subprocess.run([sys.executable, "-c", code, "--steps", "oops"], cwd=tmp_path, capture_output=True,
+                            text=True, env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert result.returncode == 0, result.stderr
+    assert (result.stdout, result.stderr) == ("[]\n", "")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("system", ["orbit", "spring", "freefall"])
+def test_smoke_metrics_match_the_golden_file_byte_for_byte(system, tmp_path, capsys):
+    assert engine.main(["--smoke", "--no-rerun", "--system", system, "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "metrics.json").read_bytes() == (GOLDEN / f"smoke_{system}.json").read_bytes()
+
+
+def test_metrics_schema_and_rounding(tmp_path, capsys):
+    engine.main(["--no-rerun", "--out", str(tmp_path)])
+    text = (tmp_path / "metrics.json").read_text()
+    metrics = json.loads(text)
+    assert text.endswith("}\n") and text == json.dumps(metrics, indent=2, sort_keys=True) + "\n"
+    assert {k: metrics[k] for k in ("system", "dt", "steps", "seed")} == {"system": "orbit", "dt": 0.01,
+                                                                          "steps": 2000, "seed": 0}
+    assert set(metrics["drift"]) == {"euler", "semi_implicit", "rk4"}
+    for d in metrics["drift"].values():
+        assert set(d) == {"e0", "e_final", "rel_final", "rel_max", "final_pos", "diverged", "diverged_at_step"}
+        for key in ("e0", "e_final", "rel_final", "rel_max"):
+            assert d[key] == round(d[key], 12)
+        assert len(d["final_pos"]) == 3 and all(x == round(x, 6) for x in d["final_pos"])
+    # 12 decimals keep RK4's ~1e-11 drift: rounding to fewer would print 0.0
+    assert metrics["drift"]["rk4"]["rel_max"] != 0.0
+    out = capsys.readouterr().out
+    assert "wall-clock" not in text and "wall-clock" in out.splitlines()[-1]
+
+
+def test_physics_avoids_blas_and_libm_pow():
+    """`@`, np.dot and np.linalg.norm use a CPU-dependent BLAS kernel; `**` a CPU-dependent pow."""
+    physics = [engine.dot3, engine.build_system, engine.simulate, engine.energy_drift, *engine.INTEGRATORS.values()]
+    for fn in physics:
+        code = "\n".join(line.split("#")[0] for line in inspect.getsource(fn).splitlines())
+        code = re.sub(r'""".*?"""', "", code, flags=re.S)
+        for trap in (" @ ", "np.dot", "linalg", "**", "np.sum", ".sum("):
+            assert trap not in code, f"{fn.__name__} uses {trap.strip()}"
+
+
+FINGERPRINT = """
+import hashlib, numpy as np, engine
+h = hashlib.sha256()
+for system in ("orbit", "spring", "freefall"):
+    s = engine.build_system(system, np.random.default_rng(0))
+    for step in engine.INTEGRATORS.values():
+        trajectory, energies = engine.simulate(step, s, 0.01, 2000)
+        h.update(trajectory.tobytes()); h.update(energies.tobytes())
+print(h.hexdigest())
+"""
+
+
+def test_trajectories_do_not_depend_on_the_simd_level():
+    def fingerprint(extra_env):
+        env = {**os.environ, "PYTHONPATH": str(REPO), **extra_env}
+        result = subprocess.run([sys.executable, "-c", FINGERPRINT], capture_output=True, text=True, env=env)
+        assert result.returncode == 0, result.stderr
+        return result.stdout
+
+    # Switch off numpy's AVX-512 and AVX2 loops: every bit of every state must stay the same.
+    assert fingerprint({}) == fingerprint({"NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR X86_V3"})
+
+
+def test_diverged_run_writes_strict_json_and_names_the_step(tmp_path, capsys):
+    # Semi-implicit Euler on the spring is stable only for dt < 2/omega = 1 s; at 1.5 s all three blow up.
+    assert engine.main(["--system", "spring", "--dt", "1.5", "--no-rerun", "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "metrics.json").read_text()
+    metrics = json.loads(text, parse_constant=lambda token: pytest.fail(f"non-strict JSON token {token}"))
+    for name, d in metrics["drift"].items():
+        assert d["diverged"] is True and d["rel_final"] is None and d["rel_max"] is None, name
+        assert isinstance(d["diverged_at_step"], int) and 0 < d["diverged_at_step"] <= 2000
+    out = capsys.readouterr()
+    assert "diverged: energy non-finite from step" in out.out and "cannot judge" in out.out
+    assert out.err == ""
+
+
+def test_divergence_step_is_the_first_non_finite_energy():
+    energies = np.array([1.0, 1.5, 3.0, np.inf, np.nan])
+    d = engine.energy_drift(energies)
+    assert d["diverged"] and d["diverged_at_step"] == 3
