@@ -137,12 +137,13 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
         v0 = np.array([0.0, 1.0 + rng.uniform(-0.05, 0.05), 0.0])
 
         def force(q, v):
-            x, y, z = q.tolist()
+            x, y, z = q.tolist()  # plain floats: for three numbers, faster than numpy's calls
             r = math.sqrt(x * x + y * y + z * z)
             r3 = r * r * r  # not r**3: pow() comes from libm, whose last bit varies by CPU
             # Magnitude mu*m/r^2, pointing at the attractor. At r = 0 the pull is undefined:
-            # return NaN and let simulate() report the step instead of raising mid-run.
-            return q * (-mu * m / r3) if r3 > 0.0 else q * math.nan
+            # NaN, so that simulate() reports the step instead of raising mid-run.
+            pull = -mu * m / r3 if r3 > 0.0 else math.nan
+            return np.array((x * pull, y * pull, z * pull))
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) - mu * m / np.sqrt(dot3(q, q))  # kinetic + gravitational
@@ -155,7 +156,7 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
         v0 = np.zeros(3)
 
         def force(q, v):
-            return -k * q
+            return q * -k  # Hooke: restoring, in proportion to the stretch
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring
@@ -182,6 +183,8 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
 # --- integrators ---
 # Each takes (q, v) and returns the state one timestep dt later. They differ only in
 # where they look at the velocity and the force, and that is the whole lesson.
+# Products are written array * scalar (`v * dt`): the same number as `dt * v`, but numpy
+# answers it directly instead of after Python's float has declined, a third faster.
 
 
 def euler_step(q, v, m, force, dt):
@@ -192,7 +195,7 @@ def euler_step(q, v, m, force, dt):
     Fails on anything that oscillates: it adds energy every step, so orbits spiral out.
     """
     a = force(q, v) / m
-    return q + dt * v, v + dt * a  # position moves with the OLD velocity
+    return q + v * dt, v + a * dt  # position moves with the OLD velocity
 
 
 def semi_implicit_step(q, v, m, force, dt):
@@ -203,8 +206,8 @@ def semi_implicit_step(q, v, m, force, dt):
     Energy wobbles in a band that does not grow; it fails where motion never returns (freefall).
     """
     a = force(q, v) / m
-    v_next = v + dt * a
-    q_next = q + dt * v_next  # the NEW velocity moves the position: one line, the whole trick
+    v_next = v + a * dt
+    q_next = q + v_next * dt  # the NEW velocity moves the position: one line, the whole trick
     return q_next, v_next
 
 
@@ -215,12 +218,16 @@ def rk4_step(q, v, m, force, dt):
     Not symplectic; order 4; 4 force evaluations per step.
     Tiny error per step, but it creeps one way and is never pulled back over long runs.
     """
+    # kNq is the slope of q at stage N, which is just the velocity there; kNv is the acceleration.
     k1q, k1v = v, force(q, v) / m
-    k2q, k2v = v + 0.5 * dt * k1v, force(q + 0.5 * dt * k1q, v + 0.5 * dt * k1v) / m
-    k3q, k3v = v + 0.5 * dt * k2v, force(q + 0.5 * dt * k2q, v + 0.5 * dt * k2v) / m
-    k4q, k4v = v + dt * k3v, force(q + dt * k3q, v + dt * k3v) / m
-    q_next = q + (dt / 6.0) * (k1q + 2.0 * k2q + 2.0 * k3q + k4q)
-    v_next = v + (dt / 6.0) * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
+    k2q = v + k1v * (0.5 * dt)
+    k2v = force(q + k1q * (0.5 * dt), k2q) / m
+    k3q = v + k2v * (0.5 * dt)
+    k3v = force(q + k2q * (0.5 * dt), k3q) / m
+    k4q = v + k3v * dt
+    k4v = force(q + k3q * dt, k4q) / m
+    q_next = q + (k1q + (k2q + k3q) * 2.0 + k4q) * (dt / 6.0)  # weights 1-2-2-1, over 6
+    v_next = v + (k1v + (k2v + k3v) * 2.0 + k4v) * (dt / 6.0)
     return q_next, v_next
 
 
@@ -237,7 +244,7 @@ def simulate(step_fn, system: dict, dt: float, steps: int, progress=None):
     trajectory: (steps + 1, 3) positions; energies: (steps + 1,) total energy, row 0 the start.
     The loop only steps and stores; energy is computed once afterwards, over the whole
     history at once. A state that blows up is carried on as inf/NaN without warnings;
-    energy_drift() reports the step where that began. progress(done) is called ~20 times.
+    energy_drift() reports the step where that began. progress(done), if given, is called ~20 times.
     """
     q = system["q0"].astype(float)
     v = system["v0"].astype(float)
@@ -245,12 +252,13 @@ def simulate(step_fn, system: dict, dt: float, steps: int, progress=None):
     positions = np.empty((steps + 1, 3))
     velocities = np.empty((steps + 1, 3))
     positions[0], velocities[0] = q, v
-    report_every = max(steps // 20, 1)
+    block = max(steps // 20, 1) if progress else steps  # report ~20 times, between blocks
     with np.errstate(all="ignore"):
-        for i in range(1, steps + 1):
-            q, v = step_fn(q, v, m, force, dt)
-            positions[i], velocities[i] = q, v
-            if progress is not None and i % report_every == 0:
+        for start in range(1, steps + 1, block):
+            for i in range(start, min(start + block, steps + 1)):
+                q, v = step_fn(q, v, m, force, dt)
+                positions[i], velocities[i] = q, v
+            if progress:
                 progress(i)
         energies = system["energy"](positions, velocities)
     return positions, energies

@@ -1,0 +1,123 @@
+"""Benchmark: engine.py against the straightforward loop, and against MuJoCo's mj_step.
+
+    python tests/bench.py            # about a minute on 2 cores
+
+Not a test (pytest does not collect it): timings vary with the machine, so the targets
+below are reported as PASS/MISS here and never asserted in CI. Targets, measured in this
+process against tests/bench_baseline.py (the chapter's loop written plainly):
+  whole default run <= 0.6x, `--smoke --no-rerun` <= 0.35x,
+  per step <= 0.6x for semi-implicit and RK4 on the orbit.
+"""
+
+import contextlib
+import io
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE.parent), str(HERE)]
+
+import bench_baseline as baseline  # noqa: E402
+import engine  # noqa: E402
+
+SYSTEMS = ["orbit", "spring", "freefall"]
+STEPS = 20_000
+REPEATS = 5
+
+
+def best_seconds(fn, repeats=REPEATS):
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def ns_per_step(simulate, step_fn, system):
+    return best_seconds(lambda: simulate(step_fn, system, 0.01, STEPS)) / STEPS * 1e9
+
+
+def whole_run_seconds(script, *flags):
+    """Best-of-N wall time of a fresh `python script flags` (interpreter start and imports included)."""
+    with tempfile.TemporaryDirectory() as out:
+        cmd = [sys.executable, str(script), *flags, "--out", out]
+        return best_seconds(lambda: subprocess.run(cmd, check=True, capture_output=True))
+
+
+def mujoco_rows():
+    """ns/step of mj_step on the same one-body models: a Python loop, and nstep in C."""
+    try:
+        import mujoco
+
+        from mujoco_models import build, passive_force
+    except ImportError:
+        return None
+    rows = {}
+    for system_name in SYSTEMS:
+        for integrator in ("Euler", "RK4"):
+            model, data, system, _ = build(system_name, integrator)
+            with passive_force(system_name, system):
+                loop = best_seconds(lambda m=model, d=data: [mujoco.mj_step(m, d) for _ in range(STEPS)])
+                nstep = best_seconds(lambda m=model, d=data: mujoco.mj_step(m, d, nstep=STEPS))
+            rows[system_name, integrator] = (loop / STEPS * 1e9, nstep / STEPS * 1e9)
+    return rows, mujoco.__version__
+
+
+def verdict(ratio, target):
+    return f"{ratio:.2f}x (target <= {target}x: {'PASS' if ratio <= target else 'MISS'})"
+
+
+def main():
+    print(f"python {sys.version.split()[0]}, numpy {np.__version__}, {STEPS:,} steps, best of {REPEATS}")
+    print("\nper step, ns (ours: loop stores q and v, energy once afterwards; baseline: energy every step)")
+    print(f"{'system':<10}{'integrator':<15}{'ours':>9}{'baseline':>10}{'ratio':>8}")
+    per_step = {}
+    for system_name in SYSTEMS:
+        ours_system = engine.build_system(system_name, np.random.default_rng(0))
+        base_system = baseline.build_system(system_name, np.random.default_rng(0))
+        for name in engine.INTEGRATORS:
+            mine = ns_per_step(engine.simulate, engine.INTEGRATORS[name], ours_system)
+            theirs = ns_per_step(baseline.simulate, baseline.INTEGRATORS[name], base_system)
+            per_step[system_name, name] = mine
+            print(f"{system_name:<10}{name:<15}{mine:>9.0f}{theirs:>10.0f}{mine / theirs:>8.2f}")
+            if system_name == "orbit" and name != "euler":
+                print(f"{'':<25}orbit {name} per step: {verdict(mine / theirs, 0.6)}")
+
+    print("\nwhole runs in this process, seconds (imports already paid; output discarded)")
+    with tempfile.TemporaryDirectory() as out:
+        for label, flags, target in (("engine.main()", [], 0.6),
+                                     ("engine.main(--smoke --no-rerun)", ["--smoke", "--no-rerun"], 0.35)):
+            with contextlib.redirect_stdout(io.StringIO()):
+                mine = best_seconds(lambda: engine.main([*flags, "--out", out]))  # noqa: B023
+                theirs = best_seconds(lambda: baseline.main([*flags, "--out", out]))  # noqa: B023
+            print(f"{label:<38}{mine:>7.3f} vs baseline {theirs:>6.3f}: {verdict(mine / theirs, target)}")
+
+    print("\nwhole runs, seconds (fresh interpreter, imports included)")
+    for label, flags, target in (("python engine.py", [], 0.6),
+                                 ("python engine.py --smoke --no-rerun", ["--smoke", "--no-rerun"], 0.35)):
+        mine = whole_run_seconds(HERE.parent / "engine.py", *flags)
+        theirs = whole_run_seconds(HERE / "bench_baseline.py", *flags)
+        print(f"{label:<38}{mine:>7.3f} vs baseline {theirs:>6.3f}: {verdict(mine / theirs, target)}")
+
+    found = mujoco_rows()
+    if found is None:
+        print("\nMuJoCo: not installed (pip install -e '.[mujoco]'), skipped")
+        return
+    rows, version = found
+    print(f"\nagainst MuJoCo {version} mj_step on the same one-body model, ns/step")
+    print(f"{'system':<10}{'MuJoCo':<8}{'ours':>9}{'mj loop':>9}{'mj nstep':>10}{'ours/loop':>11}{'ours/nstep':>12}")
+    for (system_name, integrator), (loop, nstep) in rows.items():
+        mine = per_step[system_name, "semi_implicit" if integrator == "Euler" else "rk4"]
+        print(f"{system_name:<10}{integrator:<8}{mine:>9.0f}{loop:>9.0f}{nstep:>10.0f}"
+              f"{mine / loop:>11.1f}{mine / nstep:>12.1f}")
+    print("(orbit: MuJoCo calls our Python force law through mjcb_passive at every force evaluation)")
+
+
+if __name__ == "__main__":
+    main()
