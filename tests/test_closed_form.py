@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import engine
-from closed_form import freefall_position, kepler_position, spring_position
+from exercises.exact import freefall_position, kepler_position, spring_position
 
 EXACT = {"spring": spring_position, "freefall": freefall_position, "orbit": kepler_position}
 HORIZON = {"spring": 2.0, "freefall": 2.0, "orbit": 2.0 * math.pi}  # sim seconds, fixed while dt shrinks

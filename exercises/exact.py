@@ -1,4 +1,4 @@
-"""Exact solutions of the engine's three systems, independent of any integrator."""
+"""Exact solutions of the engine's three systems, independent of any integrator: the referee's referee."""
 
 import math
 
