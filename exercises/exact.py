@@ -42,3 +42,10 @@ def kepler_position(system: dict, t: float, mu: float = 1.0) -> np.ndarray:
     f = 1.0 - a / r0 * (1.0 - math.cos(de))
     g = t - (de - math.sin(de)) / n
     return f * q0 + g * v0
+
+
+def orbit_period(system: dict, mu: float = 1.0) -> float:
+    """Kepler's third law: P = 2 pi sqrt(a^3 / mu), a from the vis-viva equation."""
+    r0 = math.sqrt(float(np.sum(system["q0"] ** 2)))
+    a = 1.0 / (2.0 / r0 - float(np.sum(system["v0"] ** 2)) / mu)
+    return 2.0 * math.pi * math.sqrt(a**3 / mu)
