@@ -1,0 +1,1 @@
+"""Reference solutions. Read them after you have tried."""
