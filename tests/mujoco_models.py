@@ -72,3 +72,13 @@ def mujoco_trajectory(system_name: str, integrator: str, dt: float = 0.01, steps
             mujoco.mj_step(model, data)
             trajectory[i, :dof] = data.qpos
     return trajectory
+
+
+if __name__ == "__main__":
+    # python tests/mujoco_models.py: the parity figures the README quotes
+    for name in ("spring", "freefall", "orbit"):
+        system = engine.build_system(name, np.random.default_rng(0))
+        for theirs, ours in (("Euler", "semi_implicit"), ("RK4", "rk4")):
+            mine, _ = engine.simulate(engine.INTEGRATORS[ours], system, 0.01, 2000)
+            gap = np.abs(mine - mujoco_trajectory(name, theirs)).max()
+            print(f"{name:<9} mujoco {theirs:<6} vs {ours:<14} max |q_ours - q_mujoco| = {gap:.3g} over 2000 steps")
