@@ -336,7 +336,9 @@ def record(path: Path, system_name: str, runs: dict) -> str | None:
 
 def log_path(rr, recording, name, trajectory):
     """The 3D view: the whole path as one line strip, in the integrator's colour."""
-    line = rr.LineStrips3D([trajectory[np.isfinite(trajectory).all(axis=1)]], colors=[COLORS[name]], labels=[name])
+    # Rerun stores float32: a diverged path's inf/NaN, or anything past 3.4e38, cannot be drawn.
+    drawable = (np.abs(trajectory) < np.finfo(np.float32).max).all(axis=1)
+    line = rr.LineStrips3D([trajectory[drawable]], colors=[COLORS[name]], labels=[name])
     recording.log(f"world/{name}", line, static=True)
 
 
@@ -385,7 +387,9 @@ def write_json_atomic(path: Path, payload: dict) -> None:
 
 
 def print_report(args, num_steps: int, drifts: dict) -> None:
-    print(f"integrated {args.system} for {num_steps} steps of {args.dt} s -> {num_steps * args.dt:.2f} s of sim time")
+    sim_seconds = num_steps * args.dt
+    shown = f"{sim_seconds:.2f}" if sim_seconds < 1e9 else f"{sim_seconds:.3g}"
+    print(f"integrated {args.system} for {num_steps} steps of {args.dt} s -> {shown} s of sim time")
     print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
     for name, d in drifts.items():
         if d["diverged"]:

@@ -6,6 +6,7 @@ import os
 import re
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -161,3 +162,16 @@ def test_divergence_step_is_the_first_non_finite_energy():
     energies = np.array([1.0, 1.5, 3.0, np.inf, np.nan])
     d = engine.energy_drift(energies)
     assert d["diverged"] and d["diverged_at_step"] == 3
+
+
+@pytest.mark.parametrize("system", ["orbit", "spring", "freefall"])
+@pytest.mark.parametrize("dt", ["0.5", "2", "1e30", "1e300"])
+def test_absurd_timesteps_run_quietly_and_write_strict_json(system, dt, tmp_path, capsys):
+    """Huge dt: escapes, overflows, NaN. Recording included. No warning may escape, the JSON stays strict."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any RuntimeWarning (overflow, invalid, float32 cast) fails the test
+        assert engine.main(["--system", system, "--dt", dt, "--steps", "300", "--out", str(tmp_path)]) == 0
+    metrics = json.loads((tmp_path / "metrics.json").read_text(), parse_constant=lambda t: pytest.fail(t))
+    for d in metrics["drift"].values():
+        assert (d["rel_max"] is None) == d["diverged"]
+    assert capsys.readouterr().err == ""
