@@ -1,6 +1,8 @@
 """engine.py as a student runs it: the default run, bad input, long runs, Ctrl-C."""
 
 import json
+import re
+import shlex
 import signal
 import subprocess
 import sys
@@ -8,7 +10,7 @@ import time
 
 import pytest
 
-from conftest import ENGINE, run_engine
+from conftest import ENGINE, REPO, run_engine
 
 
 def test_default_run_prints_banner_first_and_wall_clock_last_and_no_noise(tmp_path):
@@ -94,3 +96,35 @@ def test_ctrl_c_leaves_previous_metrics_intact(tmp_path):
     assert (tmp_path / "metrics.json").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["metrics.json"]
     json.loads(before)
+
+
+def test_no_rerun_never_imports_rerun(tmp_path):
+    code = ("import sys, engine; engine.main(['--smoke', '--no-rerun', '--out', sys.argv[1]]);"
+            "print('rerun imported:', any(m.split('.')[0] == 'rerun' for m in sys.modules))")
+    result = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, cwd=REPO)
+    assert result.returncode == 0 and result.stdout.strip().endswith("rerun imported: False")
+
+
+def readme_commands():
+    """Every `python ...` line inside the README's code blocks, comment stripped."""
+    text = (REPO / "README.md").read_text()
+    blocks = re.findall(r"```bash\n(.*?)```", text, flags=re.S)
+    lines = [line.split("#")[0].strip() for block in blocks for line in block.splitlines()]
+    return [line.split("&&")[-1].strip() for line in lines if "python " in line]
+
+
+def test_readme_engine_commands_run_as_written(tmp_path):
+    commands = [c for c in readme_commands() if c.startswith("python engine.py")]
+    assert len(commands) >= 5
+    for command in commands:
+        result = run_engine(*shlex.split(command)[2:], cwd=tmp_path)  # run from a fresh folder: outputs/ lands there
+        assert result.returncode == 0, f"{command}: {result.stderr}"
+        assert result.stderr == "", command
+
+
+def test_readme_exercise_commands_name_real_modules():
+    modules = {re.search(r"-m (\S+)", c).group(1) for c in readme_commands() if " -m exercises." in c}
+    assert modules == {"exercises.ex1_runaway", "exercises.check_ex2", "exercises.ex3_halve_dt",
+                       "exercises.ex4_long_run"}
+    for module in modules:
+        assert (REPO / (module.replace(".", "/") + ".py")).is_file()

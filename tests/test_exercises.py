@@ -67,6 +67,7 @@ def test_ex3_grades_each_integrator(tmp_path):
     assert right.returncode == 0 and "3 of 3." in right.stdout
     wrong = run_exercise("ex3_halve_dt", "--predict", "euler=2,semi_implicit=4,rk4=8", cwd=tmp_path)
     assert "1 of 3." in wrong.stdout and wrong.stdout.count("not quite") == 2
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_ex4_finds_the_crossover_and_grades_the_horizon(tmp_path):
