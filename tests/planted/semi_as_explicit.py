@@ -1,25 +1,9 @@
-"""Planted mistake for the checker tests: semi-implicit still moves q with the old velocity."""
+"""Planted mistake: semi-implicit Euler that still moves q with the old velocity."""
 
-
-def euler_step(q, v, m, force, dt):
-    """Explicit Euler: the position moves with the OLD velocity."""
-    a = force(q, v) / m
-    return q + v * dt, v + a * dt
+from exercises.solutions.ex2_integrators import euler_step, rk4_step  # noqa: F401  (the right ones)
 
 
 def semi_implicit_step(q, v, m, force, dt):
-    """Semi-implicit Euler: the same two lines as explicit Euler, velocity first."""
     a = force(q, v) / m
     v_next = v + a * dt
     return q + v * dt, v_next  # oops: the old velocity
-
-
-def rk4_step(q, v, m, force, dt):
-    """Classical RK4: slopes of (q, v) at the start, twice at the midpoint, at the end."""
-    k1q, k1v = v, force(q, v) / m
-    k2q, k2v = v + k1v * (dt / 2), force(q + k1q * (dt / 2), v + k1v * (dt / 2)) / m
-    k3q, k3v = v + k2v * (dt / 2), force(q + k2q * (dt / 2), v + k2v * (dt / 2)) / m
-    k4q, k4v = v + k3v * dt, force(q + k3q * dt, v + k3v * dt) / m
-    q_next = q + (k1q + 2 * k2q + 2 * k3q + k4q) * (dt / 6)
-    v_next = v + (k1v + 2 * k2v + 2 * k3v + k4v) * (dt / 6)
-    return q_next, v_next
