@@ -14,6 +14,7 @@ Open the recording with `rerun outputs/ch3.3-engine/engine.rrd`.
 """
 
 import argparse
+import importlib.util
 import json
 import math
 import os
@@ -103,6 +104,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     reason = _unwritable_reason(args.out)
     if reason:
         parser.error(f"argument --out: {reason}")
+    if args.rerun and importlib.util.find_spec("rerun") is None:  # looks, does not import
+        parser.error("the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun")
     return args
 
 

@@ -128,3 +128,14 @@ def test_readme_exercise_commands_name_real_modules():
                        "exercises.ex4_long_run"}
     for module in modules:
         assert (REPO / (module.replace(".", "/") + ".py")).is_file()
+
+
+def test_recording_without_rerun_installed_is_one_line_not_a_traceback(tmp_path):
+    code = ("import sys; sys.modules['rerun'] = None  # as if rerun-sdk were not installed\n"
+            "import engine; sys.exit(engine.main(['--out', sys.argv[1]]))")
+    out = tmp_path / "out"
+    result = subprocess.run([sys.executable, "-c", code, str(out)], capture_output=True, text=True, cwd=REPO)
+    assert result.returncode == 2 and result.stdout == ""
+    assert len(result.stderr.splitlines()) == 1
+    assert "pip install -e ." in result.stderr and "--no-rerun" in result.stderr
+    assert not out.exists()
