@@ -27,8 +27,7 @@ def kepler_position(system: dict, t: float, mu: float = 1.0) -> np.ndarray:
     """
     q0, v0 = system["q0"], system["v0"]
     r0 = math.sqrt(float(np.sum(q0 * q0)))
-    a = 1.0 / (2.0 / r0 - float(np.sum(v0 * v0)) / mu)
-    assert a > 0, "only bound (elliptic) orbits"
+    a = semi_major_axis(system, mu)
     n = math.sqrt(mu / a**3)
     c = 1.0 - r0 / a
     s = float(np.sum(q0 * v0)) / math.sqrt(mu * a)
@@ -44,8 +43,14 @@ def kepler_position(system: dict, t: float, mu: float = 1.0) -> np.ndarray:
     return f * q0 + g * v0
 
 
-def orbit_period(system: dict, mu: float = 1.0) -> float:
-    """Kepler's third law: P = 2 pi sqrt(a^3 / mu), a from the vis-viva equation."""
+def semi_major_axis(system: dict, mu: float = 1.0) -> float:
+    """Vis-viva: v^2 = mu (2/r - 1/a), solved for a from the initial state."""
     r0 = math.sqrt(float(np.sum(system["q0"] ** 2)))
     a = 1.0 / (2.0 / r0 - float(np.sum(system["v0"] ** 2)) / mu)
-    return 2.0 * math.pi * math.sqrt(a**3 / mu)
+    assert a > 0, "only bound (elliptic) orbits"
+    return a
+
+
+def orbit_period(system: dict, mu: float = 1.0) -> float:
+    """Kepler's third law: P = 2 pi sqrt(a^3 / mu)."""
+    return 2.0 * math.pi * math.sqrt(semi_major_axis(system, mu) ** 3 / mu)

@@ -4,8 +4,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 REPO = Path(__file__).resolve().parents[1]
 ENGINE = REPO / "engine.py"
 
@@ -14,8 +12,3 @@ def run_engine(*args, cwd=None, env=None, timeout=120):
     """`python engine.py ARGS` in a fresh interpreter; returns the CompletedProcess."""
     return subprocess.run([sys.executable, str(ENGINE), *map(str, args)], cwd=cwd or REPO, env=env,
                           capture_output=True, text=True, timeout=timeout)
-
-
-@pytest.fixture
-def engine_cli():
-    return run_engine
