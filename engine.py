@@ -47,6 +47,8 @@ APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '
 # --- systems ---
 # A system is the physics: where the body starts (q0, v0), its mass m, the force law
 # force(q, v), and the true total energy(q, v), which a perfect integrator holds constant.
+# Each also knows its exact motion, exact(q0, v0, t): where a body starting at (q0, v0) is
+# at times t, (K,) -> (K, *q0.shape). The recording measures the integrators against it.
 #
 # The contract every system keeps, and simulate() checks: q and v are one body's
 # position and velocity, shape (3,), or a batch of N independent bodies, shape (N, 3),
@@ -67,7 +69,7 @@ def dot3(a, b):
 
 
 def build_system(name: str, rng: np.random.Generator) -> dict:
-    """Return {name, q0, v0, m, force, energy} for one of the three conservative systems.
+    """Return {name, q0, v0, m, force, energy, exact} for one of the three conservative systems.
 
     The seed jitters one initial condition per system (orbit speed, spring stretch,
     launch speed), so --seed matters while the ordering of the drifts does not change.
@@ -86,6 +88,9 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
         def energy(q, v):
             return 0.5 * m * dot3(v, v) - mu * m / np.sqrt(dot3(q, q))  # kinetic + gravitational
 
+        def exact(q0, v0, t):
+            return kepler_orbit(q0, v0, t, mu)
+
     elif name == "spring":
         # A mass on an ideal Hooke spring: pulled straight back, in proportion to the stretch.
         # Undamped, so the amplitude and the energy should stay exactly where they started.
@@ -98,6 +103,10 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring
+
+        def exact(q0, v0, t):
+            w, t = np.sqrt(k / m), times_for(t, q0)
+            return q0 * np.cos(w * t) + v0 / w * np.sin(w * t)
 
     elif name == "freefall":
         # A body thrown sideways under constant gravity. Energy is conserved here too, but the
@@ -113,9 +122,42 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + m * g * q[..., 2]  # kinetic + height
 
+        def exact(q0, v0, t):
+            t = times_for(t, q0)
+            return q0 + v0 * t + 0.5 * gravity * t * t  # the parabola
+
     else:
         raise ValueError(f"unknown system {name!r}; choose one of {', '.join(SYSTEMS)}")
-    return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy}
+    return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact}
+
+
+def times_for(t, q0):
+    """Times (K,) shaped to broadcast against states of q0's shape: (K, 1) or (K, 1, 1)."""
+    t = np.asarray(t, dtype=float)
+    return t.reshape(t.shape + (1,) * np.ndim(q0))
+
+
+def kepler_orbit(q0, v0, t, mu):
+    """Exact positions at times t on the bound orbit that starts at (q0, v0), by Kepler's equation.
+
+    With a the semi-major axis and n = sqrt(mu / a^3) the mean motion, the change dE of eccentric
+    anomaly solves  n t = dE - (1 - r0/a) sin dE + (q0.v0) / sqrt(mu a) (1 - cos dE),  and then
+    q(t) = f q0 + g v0 with Lagrange's f = 1 - a/r0 (1 - cos dE) and g = t - (dE - sin dE) / n.
+    """
+    r0 = np.sqrt(dot3(q0, q0))
+    a = 1.0 / (2.0 / r0 - dot3(v0, v0) / mu)  # vis-viva: v^2 = mu (2/r - 1/a)
+    n = np.sqrt(mu / (a * a * a))
+    t = times_for(t, q0)[..., 0] % (2.0 * np.pi / n)  # the orbit repeats every period
+    c, s = 1.0 - r0 / a, dot3(q0, v0) / np.sqrt(mu * a)
+    de = n * t
+    for _ in range(50):  # Newton's method: a handful of rounds reach round-off
+        step = (de - c * np.sin(de) + s * (1.0 - np.cos(de)) - n * t) / (1.0 - c * np.cos(de) + s * np.sin(de))
+        de = de - step
+        if np.all(np.abs(step) < 1e-12):  # the next round would change de by ~1e-24
+            break
+    f = 1.0 - a / r0 * (1.0 - np.cos(de))
+    g = t - (de - np.sin(de)) / n
+    return f[..., None] * q0 + g[..., None] * v0
 
 
 def build_ensemble(name: str, seeds) -> dict:
@@ -265,85 +307,225 @@ def energy_drift(energies: np.ndarray) -> dict:
 
 
 # --- record ---
-# All of Rerun lives here, imported only when a recording is asked for, so the physics
-# and the tests run without it. The file opens on three things: the paths in 3D, and
-# beside them one plot where the integrators' energy errors overlay (raw energy in a tab).
+# All of Rerun lives here, imported only when a recording is asked for, so the physics and the tests run
+# without it. Each system opens on its own lesson: RECORDED_VIEWS lists, per system, the views it needs,
+# and each log_<view>() logs its data along the `step` timeline and returns that view's layout. A new
+# system or view plugs in with one function and one line in the table.
+
+LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk4": "RK4"}
+LABEL_ROWS = {"euler": 1.0, "semi_implicit": 0.0, "rk4": -1.0}  # where each label rides: above, on, below
+PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
+FLOAT32_MAX = float(np.finfo(np.float32).max)  # Rerun stores float32: inf, NaN and beyond cannot be drawn
 
 
-def record(path: Path, system_name: str, runs: dict, kept: np.ndarray) -> str | None:
-    """Write runs {name: (positions, velocities, energies)} to `path`. Returns a note if thinned.
+def record(path: Path, system: dict, runs: dict, kept: np.ndarray, dt: float) -> str | None:
+    """Write runs {integrator: (positions, velocities, energies)} to `path`. Returns a note if thinned.
 
     `kept` are the step numbers of the kept states; energies are logged at those steps too.
     """
     import rerun as rr
     import rerun.blueprint as rrb
 
-    steps = int(kept[-1])
-    blueprint = rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="paths"),
-            rrb.Tabs(
-                rrb.TimeSeriesView(origin="rel_error", name="log10 |E - E0| / |E0|"),
-                rrb.TimeSeriesView(origin="energy", name="total energy E"),
-                active_tab=0,
-            ),
-        ),
-    )
-    partial = path.with_name(path.name + ".partial")
+    # The stream: created, saved to a partial file, renamed into place once complete.
     recording = rr.RecordingStream(APPLICATION_ID)
+    partial = path.with_name(path.name + ".partial")
     try:
-        recording.save(partial, default_blueprint=blueprint)
-        if system_name == "orbit":  # the fixed attractor the orbit's ellipse has at one focus
-            recording.log("world/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03]), static=True)
-        for name, (positions, _, energies) in runs.items():
-            log_path(recording, name, positions)
-            log_energy(recording, name, kept, energies[kept])
-            log_relative_error(recording, name, kept, energies[kept], energies[0])
+        recording.save(partial)
+        views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in RECORDED_VIEWS[system["name"]]]
+        recording.send_blueprint(layout(rrb, views, kept))
         recording.flush()
         recording.disconnect()
         partial.replace(path)
     finally:
         partial.unlink(missing_ok=True)
+    steps = int(kept[-1])
     if len(kept) == steps + 1:
         return None
     every = int(kept[1] - kept[0])
     return f"recording keeps 1 state in {every} of {steps + 1:,} per integrator, to stay viewable (metrics use all)"
 
 
-def log_path(recording, name, positions):
-    """The 3D view: the whole path as one line strip, in the integrator's colour."""
-    import rerun as rr
+def layout(rrb, views, kept):
+    """The first view large on the left, the others stacked on the right; the side panels folded away.
 
-    # Rerun stores float32: a diverged path's inf/NaN, or anything past 3.4e38, cannot be drawn.
-    drawable = (np.abs(positions) < np.finfo(np.float32).max).all(axis=1)
-    line = rr.LineStrips3D([positions[drawable]], colors=[COLORS[name]], labels=[name])
-    recording.log(f"world/{name}", line, static=True)
-
-
-def log_energy(recording, name, steps, energies):
-    """Total energy on the `step` timeline. Euler's 22% climb flattens the others here."""
-    import rerun as rr
-
-    recording.log(f"energy/{name}", rr.SeriesLines(colors=[COLORS[name]], names=[name]), static=True)
-    finite = np.isfinite(energies)
-    recording.send_columns(f"energy/{name}", indexes=[rr.TimeColumn("step", sequence=steps[finite])],
-                           columns=rr.Scalars.columns(scalars=energies[finite]))
-
-
-def log_relative_error(recording, name, steps, energies, e0):
-    """log10 |E - E0| / |E0|: Rerun has no log axis, so we log the exponent.
-
-    Read it as "digits lost": Euler climbs towards 0 (100%), semi-implicit sits in a flat
-    band, RK4 starts near round-off. Steps where the error is exactly zero have no log.
+    The file opens with the time cursor on the last step (play state "following"): every body where its
+    run ended, every plot whole. Press play and the bodies travel their paths from the start again.
     """
+    first, *others = views
+    story = rrb.Horizontal(first, rrb.Vertical(*others), column_shares=[3, 2]) if others else first
+    return rrb.Blueprint(
+        story,
+        rrb.BlueprintPanel(state="hidden"),
+        rrb.SelectionPanel(state="hidden"),
+        rrb.TimePanel(state="collapsed", timeline="step", play_state="following",
+                      fps=max(int(kept[-1]) / PLAYBACK_SECONDS, 1.0)),
+    )
+
+
+def drawable(points):
+    """Rows whose every coordinate Rerun can draw (a diverged run's inf and NaN are left out)."""
+    return (np.abs(points) < FLOAT32_MAX).all(axis=-1)
+
+
+def on_steps(rr, steps):
+    return [rr.TimeColumn("step", sequence=steps)]
+
+
+def log_bodies(rr, recording, entity, name, points, kept, radius, label_gap):
+    """One integrator in a spatial view: its whole path as a trail, and a body that travels along it."""
+    shown = drawable(points)
+    colour = [COLORS[name]]
+    recording.log(f"{entity}/trail", rr.LineStrips3D([points[shown]], colors=colour, radii=[radius / 4]), static=True)
+    recording.log(f"{entity}/body", rr.Points3D.from_fields(colors=colour, radii=[radius]), static=True)
+    recording.send_columns(f"{entity}/body", indexes=on_steps(rr, kept[shown]),
+                           columns=rr.Points3D.columns(positions=points[shown]))
+    # The label rides beside its body, each integrator at its own height, so three bodies in one place
+    # (they all start together; RK4 and semi-implicit stay close) still show three readable labels.
+    lifted = points[shown] + [0.0, LABEL_ROWS[name] * label_gap, 0.0]
+    recording.log(f"{entity}/label", rr.Points3D.from_fields(colors=colour, radii=[0.0], labels=[LABELS[name]],
+                                                             show_labels=True), static=True)
+    recording.send_columns(f"{entity}/label", indexes=on_steps(rr, kept[shown]),
+                           columns=rr.Points3D.columns(positions=lifted))
+
+
+def camera_above(rrb, paths, tilt):
+    """A camera above the plane z = 0 that frames every drawable point of every path.
+
+    tilt 0 looks straight down with +y up the screen (a flat plot); a small tilt shows that it is 3D.
+    """
+    points = np.concatenate([p[drawable(p)] for p in paths])
+    if len(points) == 0:
+        return None  # nothing drawable: the viewer's own camera
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre = (low + high) / 2.0
+    distance = 1.1 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
+    up = [0.0, 0.0, 1.0] if tilt else [0.0, 1.0, 0.0]
+    return rrb.EyeControls3D(kind="Orbital", look_target=centre.tolist(), eye_up=up,
+                             position=(centre + [0.0, -tilt * distance, distance]).tolist())
+
+
+def log_orbit(rr, rrb, recording, system, runs, kept, dt):
+    """3D, seen from above: each body circles the attractor, Euler's spiralling out, the other two together."""
+    recording.log("orbit/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.04], colors=[[230, 230, 230]],
+                                                 labels=["attractor"]), static=True)
+    paths = [positions for positions, _, _ in runs.values()]
+    for name, (positions, _, _) in runs.items():
+        log_bodies(rr, recording, f"orbit/{name}", name, positions, kept, radius=0.035, label_gap=0.1)
+    return rrb.Spatial3DView(origin="orbit", name="orbit: the paths, from above",
+                             eye_controls=camera_above(rrb, paths, tilt=0.35),
+                             line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
+
+
+def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
+    """x across, v_x up: a closed curve is an oscillation that keeps its energy; Euler's spirals out."""
+    planes = {}
+    for name, (positions, velocities, _) in runs.items():
+        planes[name] = np.stack([positions[:, 0], velocities[:, 0], np.zeros(len(kept))], axis=1)
+        log_bodies(rr, recording, f"phase/{name}", name, planes[name], kept, radius=0.05, label_gap=0.3)
+    # Axes through the origin, named at their tips, a tick at every whole unit. A 3D view looking straight
+    # down stands in for a 2D one because Rerun's 2D views point y downwards.
+    reach = np.max([np.abs(p[drawable(p)]).max(axis=0) for p in planes.values()], axis=0) * 1.1
+    recording.log("phase/axes", rr.LineStrips3D([[[-reach[0], 0, 0], [reach[0], 0, 0]],
+                                                 [[0, -reach[1], 0], [0, reach[1], 0]]],
+                                                colors=[[150, 150, 150]], radii=[0.004]), static=True)
+    recording.log("phase/axes/names", rr.Points3D([[reach[0], 0, 0], [0, reach[1], 0]], radii=[0.0],
+                                                  labels=["x (m)", "v_x (m/s)"], show_labels=True), static=True)
+    ticks = [[x, 0, 0] for x in range(-int(reach[0]), int(reach[0]) + 1) if x]
+    ticks += [[0, v, 0] for v in range(-int(reach[1]), int(reach[1]) + 1) if v]
+    recording.log("phase/axes/ticks", rr.Points3D(ticks, radii=[0.015], colors=[[150, 150, 150]],
+                                                  labels=[str(x + v) for x, v, _ in ticks], show_labels=True),
+                  static=True)
+    return rrb.Spatial3DView(origin="phase", name=f"{system['name']}: phase plane, x against v_x",
+                             eye_controls=camera_above(rrb, list(planes.values()), tilt=0.0),
+                             line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
+
+
+def log_curves(rr, recording, origin, curves, kept):
+    """One line per integrator on the `step` timeline, in its colour. Returns the finite values logged."""
+    logged = []
+    for name, values in curves.items():
+        recording.log(f"{origin}/{name}", rr.SeriesLines(colors=[COLORS[name]], names=[LABELS[name]]), static=True)
+        shown = np.isfinite(values)
+        recording.send_columns(f"{origin}/{name}", indexes=on_steps(rr, kept[shown]),
+                               columns=rr.Scalars.columns(scalars=values[shown]))
+        logged.append(values[shown])
+    return np.concatenate(logged)
+
+
+def plot(rrb, origin, name, kept, y_range, legend):
+    """A time-series view that opens on the whole run, from step 0 to the last, on a fixed y range."""
     import rerun as rr
 
-    recording.log(f"rel_error/{name}", rr.SeriesLines(colors=[COLORS[name]], names=[name]), static=True)
+    whole_run = rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seq=0),
+                             end=rrb.TimeRangeBoundary.absolute(seq=int(kept[-1])))
+    return rrb.TimeSeriesView(origin=origin, name=name, axis_x=rrb.TimeAxis(view_range=whole_run),
+                              axis_y=rrb.ScalarAxis(range=y_range), plot_legend=rrb.PlotLegend(corner=legend),
+                              interaction=rrb.PlotInteraction(tooltip_mode="All"))
+
+
+def padded(values, margin=0.05):
+    """(low, high) of the values with a margin, or None (the viewer's own fit) when there are none."""
+    if values.size == 0:
+        return None
+    low, high = float(values.min()), float(values.max())
+    pad = margin * ((high - low) or 1.0)
+    return (low - pad, high + pad)
+
+
+def log10_of(x):
+    """log10 where x > 0, NaN elsewhere (exact zeros, which have no logarithm, are not drawn)."""
     with np.errstate(all="ignore"):
-        relative = np.abs(energies - e0) / (abs(e0) if e0 != 0.0 else 1.0)
-        shown = np.isfinite(relative) & (relative > 0.0)
-        recording.send_columns(f"rel_error/{name}", indexes=[rr.TimeColumn("step", sequence=steps[shown])],
-                               columns=rr.Scalars.columns(scalars=np.log10(relative[shown])))
+        return np.where(x > 0.0, np.log10(np.where(x > 0.0, x, 1.0)), np.nan)
+
+
+def log_position_error(rr, rrb, recording, system, runs, kept, dt):
+    """log10 |q - q_exact| in metres: RK4 sits orders of magnitude below semi-implicit Euler."""
+    exact = system["exact"](system["q0"], system["v0"], kept * dt)
+    curves = {}
+    for name, (positions, _, _) in runs.items():
+        miss = positions - exact
+        with np.errstate(all="ignore"):
+            curves[name] = log10_of(np.sqrt(dot3(miss, miss)))
+    logged = log_curves(rr, recording, "position_error", curves, kept)
+    return plot(rrb, "position_error", "position error against the exact orbit: log10 |q - q_exact| (m)", kept,
+                padded(logged), "RightBottom")
+
+
+def log_energy_error(rr, rrb, recording, system, runs, kept, dt):
+    """log10 |E - E0| / |E0|, digits of energy lost: Euler climbs to 0 (100%), semi-implicit stays in a band."""
+    curves = {}
+    for name, (_, _, energies) in runs.items():
+        e0 = energies[0]
+        with np.errstate(all="ignore"):
+            curves[name] = log10_of(np.abs(energies[kept] - e0) / (abs(e0) or 1.0))
+    logged = log_curves(rr, recording, "energy_error", curves, kept)
+    return plot(rrb, "energy_error", "energy error: log10 |E - E0| / |E0|", kept, padded(logged), "RightBottom")
+
+
+def log_energy_change(rr, rrb, recording, system, runs, kept, dt):
+    """(E - E0) / |E0| in percent, sign kept: on freefall the two Eulers miss by the same amount, opposite ways."""
+    curves = {}
+    for name, (_, _, energies) in runs.items():
+        e0 = energies[0]
+        with np.errstate(all="ignore"):
+            curves[name] = (energies[kept] - e0) / (abs(e0) or 1.0) * 100.0
+    logged = log_curves(rr, recording, "energy_change", curves, kept)
+    reach = 1.15 * float(np.abs(logged).max(initial=0.0)) or 1.0
+    return plot(rrb, "energy_change", "energy change (E - E0) / |E0|, %", kept, (-reach, reach), "LeftTop")
+
+
+def log_height(rr, rrb, recording, system, runs, kept, dt):
+    """Height z against the step: the body falls and never comes back, so no error is ever paid back."""
+    curves = {name: positions[:, 2] for name, (positions, _, _) in runs.items()}
+    logged = log_curves(rr, recording, "height", curves, kept)
+    return plot(rrb, "height", "height z (m)", kept, padded(logged), "LeftBottom")
+
+
+RECORDED_VIEWS = {  # per system, the views its lesson needs; the first one opens large on the left
+    "orbit": (log_orbit, log_position_error, log_energy_error),
+    "spring": (log_phase_plane, log_energy_error),
+    "freefall": (log_energy_change, log_height),
+}
 
 
 # --- report ---
@@ -451,7 +633,7 @@ def main(argv=None) -> int:
             drifts[name] = energy_drift(energies)
             drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
         args.out.mkdir(parents=True, exist_ok=True)
-        note = record(recording_path, args.system, runs, kept_steps(steps, every)) if args.rerun else None
+        note = record(recording_path, system, runs, kept_steps(steps, every), args.dt) if args.rerun else None
         write_atomic(metrics_path, metrics_text(build_metrics(args.system, args.dt, steps, args.seed, drifts)))
     except KeyboardInterrupt:
         print(f"\ninterrupted: {METRICS_FILE} and {RECORDING_FILE} were left as they were", file=sys.stderr)
