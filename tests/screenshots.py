@@ -71,7 +71,7 @@ def main() -> int:
         for name in args.cases or CASES:
             run_dir = Path(scratch) / name
             subprocess.run([sys.executable, "engine.py", *CASES[name], "--out", str(run_dir)], cwd=ROOT, check=True,
-                           stdout=subprocess.DEVNULL)
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             rrd = run_dir / "engine.rrd"
             png = args.out / f"{name}.png"
             screenshot(rrd, png)
