@@ -313,7 +313,6 @@ def energy_drift(energies: np.ndarray) -> dict:
 # system or view plugs in with one function and one line in the table.
 
 LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk4": "RK4"}
-LABEL_ROWS = {"euler": 1.0, "semi_implicit": 0.0, "rk4": -1.0}  # where each label rides: above, on, below
 PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
 FLOAT32_MAX = float(np.finfo(np.float32).max)  # Rerun stores float32: inf, NaN and beyond cannot be drawn
 
@@ -371,7 +370,7 @@ def on_steps(rr, steps):
     return [rr.TimeColumn("step", sequence=steps)]
 
 
-def log_bodies(rr, recording, entity, name, points, kept, radius, label_gap):
+def log_bodies(rr, recording, entity, name, points, kept, radius, label_lift):
     """One integrator in a spatial view: its whole path as a trail, and a body that travels along it."""
     shown = drawable(points)
     colour = [COLORS[name]]
@@ -379,13 +378,34 @@ def log_bodies(rr, recording, entity, name, points, kept, radius, label_gap):
     recording.log(f"{entity}/body", rr.Points3D.from_fields(colors=colour, radii=[radius]), static=True)
     recording.send_columns(f"{entity}/body", indexes=on_steps(rr, kept[shown]),
                            columns=rr.Points3D.columns(positions=points[shown]))
-    # The label rides beside its body, each integrator at its own height, so three bodies in one place
-    # (they all start together; RK4 and semi-implicit stay close) still show three readable labels.
-    lifted = points[shown] + [0.0, LABEL_ROWS[name] * label_gap, 0.0]
+    # The label rides with its body, lifted up or down the screen (+y) by label_lifts() below.
+    lifted = points[shown] + label_lift[shown, None] * [0.0, 1.0, 0.0]
     recording.log(f"{entity}/label", rr.Points3D.from_fields(colors=colour, radii=[0.0], labels=[LABELS[name]],
                                                              show_labels=True), static=True)
     recording.send_columns(f"{entity}/label", indexes=on_steps(rr, kept[shown]),
                            columns=rr.Points3D.columns(positions=lifted))
+
+
+def label_lifts(paths, gap=0.045):
+    """Per step, how far to lift each integrator's label: by its body's rank in height among the bodies.
+
+    Bodies in one place (they all start together; RK4 and semi-implicit stay close) would stack their
+    labels into one unreadable blot. Ranked this way the labels keep their bodies' order and stay apart.
+    """
+    low, high = extent(paths.values())
+    gap *= float(max(high[0] - low[0], high[1] - low[1]) or 1.0)  # a fraction of what the camera frames
+    heights = np.stack([points[:, 1] for points in paths.values()], axis=1)
+    rank = np.argsort(np.argsort(heights, axis=1, kind="stable"), axis=1)  # 0 = lowest body at that step
+    lifts = (rank - (len(paths) - 1) / 2.0) * gap
+    return {name: lifts[:, i] for i, name in enumerate(paths)}
+
+
+def extent(paths):
+    """The corners (low, high) of the box around every drawable point; a unit box if there are none."""
+    points = np.concatenate([p[drawable(p)] for p in paths])
+    if len(points) == 0:
+        return np.full(3, -1.0), np.full(3, 1.0)
+    return points.min(axis=0), points.max(axis=0)
 
 
 def camera_above(rrb, paths, tilt):
@@ -393,10 +413,7 @@ def camera_above(rrb, paths, tilt):
 
     tilt 0 looks straight down with +y up the screen (a flat plot); a small tilt shows that it is 3D.
     """
-    points = np.concatenate([p[drawable(p)] for p in paths])
-    if len(points) == 0:
-        return None  # nothing drawable: the viewer's own camera
-    low, high = points.min(axis=0), points.max(axis=0)
+    low, high = extent(paths)
     centre = (low + high) / 2.0
     distance = 1.1 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
     up = [0.0, 0.0, 1.0] if tilt else [0.0, 1.0, 0.0]
@@ -408,20 +425,22 @@ def log_orbit(rr, rrb, recording, system, runs, kept, dt):
     """3D, seen from above: each body circles the attractor, Euler's spiralling out, the other two together."""
     recording.log("orbit/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.04], colors=[[230, 230, 230]],
                                                  labels=["attractor"]), static=True)
-    paths = [positions for positions, _, _ in runs.values()]
-    for name, (positions, _, _) in runs.items():
-        log_bodies(rr, recording, f"orbit/{name}", name, positions, kept, radius=0.035, label_gap=0.1)
+    paths = {name: positions for name, (positions, _, _) in runs.items()}
+    lifts = label_lifts(paths)
+    for name, positions in paths.items():
+        log_bodies(rr, recording, f"orbit/{name}", name, positions, kept, radius=0.035, label_lift=lifts[name])
     return rrb.Spatial3DView(origin="orbit", name="orbit: the paths, from above",
-                             eye_controls=camera_above(rrb, paths, tilt=0.35),
+                             eye_controls=camera_above(rrb, paths.values(), tilt=0.35),
                              line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
 
 
 def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
     """x across, v_x up: a closed curve is an oscillation that keeps its energy; Euler's spirals out."""
-    planes = {}
-    for name, (positions, velocities, _) in runs.items():
-        planes[name] = np.stack([positions[:, 0], velocities[:, 0], np.zeros(len(kept))], axis=1)
-        log_bodies(rr, recording, f"phase/{name}", name, planes[name], kept, radius=0.05, label_gap=0.3)
+    planes = {name: np.stack([positions[:, 0], velocities[:, 0], np.zeros(len(kept))], axis=1)
+              for name, (positions, velocities, _) in runs.items()}
+    lifts = label_lifts(planes)
+    for name, plane in planes.items():
+        log_bodies(rr, recording, f"phase/{name}", name, plane, kept, radius=0.05, label_lift=lifts[name])
     # Axes through the origin, named at their tips, a tick at every whole unit. A 3D view looking straight
     # down stands in for a 2D one because Rerun's 2D views point y downwards.
     reach = np.max([np.abs(p[drawable(p)]).max(axis=0) for p in planes.values()], axis=0) * 1.1
@@ -429,6 +448,7 @@ def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
                                                  [[0, -reach[1], 0], [0, reach[1], 0]]],
                                                 colors=[[150, 150, 150]], radii=[0.004]), static=True)
     recording.log("phase/axes/names", rr.Points3D([[reach[0], 0, 0], [0, reach[1], 0]], radii=[0.0],
+                                                  colors=[[200, 200, 200]],
                                                   labels=["x (m)", "v_x (m/s)"], show_labels=True), static=True)
     ticks = [[x, 0, 0] for x in range(-int(reach[0]), int(reach[0]) + 1) if x]
     ticks += [[0, v, 0] for v in range(-int(reach[1]), int(reach[1]) + 1) if v]
@@ -436,7 +456,7 @@ def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
                                                   labels=[str(x + v) for x, v, _ in ticks], show_labels=True),
                   static=True)
     return rrb.Spatial3DView(origin="phase", name=f"{system['name']}: phase plane, x against v_x",
-                             eye_controls=camera_above(rrb, list(planes.values()), tilt=0.0),
+                             eye_controls=camera_above(rrb, planes.values(), tilt=0.0),
                              line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
 
 
@@ -450,6 +470,13 @@ def log_curves(rr, recording, origin, curves, kept):
                                columns=rr.Scalars.columns(scalars=values[shown]))
         logged.append(values[shown])
     return np.concatenate(logged)
+
+
+def log_level(rr, recording, entity, label, value, kept):
+    """A grey line at `value` across the whole run, to read the curves against."""
+    recording.log(entity, rr.SeriesLines(colors=[[150, 150, 150]], names=[label]), static=True)
+    recording.send_columns(entity, indexes=on_steps(rr, [0, int(kept[-1])]),
+                           columns=rr.Scalars.columns(scalars=[value, value]))
 
 
 def plot(rrb, origin, name, kept, y_range, legend):
@@ -487,8 +514,10 @@ def log_position_error(rr, rrb, recording, system, runs, kept, dt):
         with np.errstate(all="ignore"):
             curves[name] = log10_of(np.sqrt(dot3(miss, miss)))
     logged = log_curves(rr, recording, "position_error", curves, kept)
+    # log10 = 0 is an error as big as the orbit itself. (Legends sort by entity name: "zero" comes last.)
+    log_level(rr, recording, "position_error/zero", "1 m, the orbit's radius", 0.0, kept)
     return plot(rrb, "position_error", "position error against the exact orbit: log10 |q - q_exact| (m)", kept,
-                padded(logged), "RightBottom")
+                padded(np.append(logged, 0.0)), "RightBottom")
 
 
 def log_energy_error(rr, rrb, recording, system, runs, kept, dt):
@@ -499,7 +528,9 @@ def log_energy_error(rr, rrb, recording, system, runs, kept, dt):
         with np.errstate(all="ignore"):
             curves[name] = log10_of(np.abs(energies[kept] - e0) / (abs(e0) or 1.0))
     logged = log_curves(rr, recording, "energy_error", curves, kept)
-    return plot(rrb, "energy_error", "energy error: log10 |E - E0| / |E0|", kept, padded(logged), "RightBottom")
+    log_level(rr, recording, "energy_error/zero", "100% of E0", 0.0, kept)  # log10 = 0: all of it
+    return plot(rrb, "energy_error", "energy error: log10 |E - E0| / |E0|", kept, padded(np.append(logged, 0.0)),
+                "RightBottom")
 
 
 def log_energy_change(rr, rrb, recording, system, runs, kept, dt):
