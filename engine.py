@@ -370,12 +370,17 @@ def on_steps(rr, steps):
     return [rr.TimeColumn("step", sequence=steps)]
 
 
-def log_bodies(rr, recording, entity, name, points, kept, radius, label_lift):
-    """One integrator in a spatial view: its whole path as a trail, and a body that travels along it."""
+def log_bodies(rr, recording, entity, name, points, kept, label_lift):
+    """One integrator in a spatial view: its whole path as a trail, and a body that travels along it.
+
+    Sizes are in screen points, so a body stays a visible dot and a trail a thin line at any zoom.
+    """
     shown = drawable(points)
     colour = [COLORS[name]]
-    recording.log(f"{entity}/trail", rr.LineStrips3D([points[shown]], colors=colour, radii=[radius / 4]), static=True)
-    recording.log(f"{entity}/body", rr.Points3D.from_fields(colors=colour, radii=[radius]), static=True)
+    trail = rr.LineStrips3D([points[shown]], colors=colour, radii=rr.components.Radius.ui_points(1.5))
+    recording.log(f"{entity}/trail", trail, static=True)
+    body = rr.Points3D.from_fields(colors=colour, radii=rr.components.Radius.ui_points(7.0))
+    recording.log(f"{entity}/body", body, static=True)
     recording.send_columns(f"{entity}/body", indexes=on_steps(rr, kept[shown]),
                            columns=rr.Points3D.columns(positions=points[shown]))
     # The label rides with its body, lifted up or down the screen (+y) by label_lifts() below.
@@ -423,12 +428,13 @@ def camera_above(rrb, paths, tilt):
 
 def log_orbit(rr, rrb, recording, system, runs, kept, dt):
     """3D, seen from above: each body circles the attractor, Euler's spiralling out, the other two together."""
-    recording.log("orbit/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.04], colors=[[230, 230, 230]],
-                                                 labels=["attractor"]), static=True)
+    attractor = rr.Points3D([[0.0, 0.0, 0.0]], radii=rr.components.Radius.ui_points(6.0), colors=[[230, 230, 230]],
+                            labels=["attractor"])
+    recording.log("orbit/attractor", attractor, static=True)
     paths = {name: positions for name, (positions, _, _) in runs.items()}
     lifts = label_lifts(paths)
     for name, positions in paths.items():
-        log_bodies(rr, recording, f"orbit/{name}", name, positions, kept, radius=0.035, label_lift=lifts[name])
+        log_bodies(rr, recording, f"orbit/{name}", name, positions, kept, label_lift=lifts[name])
     return rrb.Spatial3DView(origin="orbit", name="orbit: the paths, from above",
                              eye_controls=camera_above(rrb, paths.values(), tilt=0.35),
                              line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
@@ -440,24 +446,35 @@ def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
               for name, (positions, velocities, _) in runs.items()}
     lifts = label_lifts(planes)
     for name, plane in planes.items():
-        log_bodies(rr, recording, f"phase/{name}", name, plane, kept, radius=0.05, label_lift=lifts[name])
-    # Axes through the origin, named at their tips, a tick at every whole unit. A 3D view looking straight
-    # down stands in for a 2D one because Rerun's 2D views point y downwards.
-    reach = np.max([np.abs(p[drawable(p)]).max(axis=0) for p in planes.values()], axis=0) * 1.1
-    recording.log("phase/axes", rr.LineStrips3D([[[-reach[0], 0, 0], [reach[0], 0, 0]],
-                                                 [[0, -reach[1], 0], [0, reach[1], 0]]],
-                                                colors=[[150, 150, 150]], radii=[0.004]), static=True)
-    recording.log("phase/axes/names", rr.Points3D([[reach[0], 0, 0], [0, reach[1], 0]], radii=[0.0],
-                                                  colors=[[200, 200, 200]],
-                                                  labels=["x (m)", "v_x (m/s)"], show_labels=True), static=True)
-    ticks = [[x, 0, 0] for x in range(-int(reach[0]), int(reach[0]) + 1) if x]
-    ticks += [[0, v, 0] for v in range(-int(reach[1]), int(reach[1]) + 1) if v]
-    recording.log("phase/axes/ticks", rr.Points3D(ticks, radii=[0.015], colors=[[150, 150, 150]],
-                                                  labels=[str(x + v) for x, v, _ in ticks], show_labels=True),
-                  static=True)
+        log_bodies(rr, recording, f"phase/{name}", name, plane, kept, label_lift=lifts[name])
+    low, high = extent(planes.values())
+    log_axes(rr, recording, "phase/axes", np.maximum(-low, high)[:2] * 1.1, ("x (m)", "v_x (m/s)"))
     return rrb.Spatial3DView(origin="phase", name=f"{system['name']}: phase plane, x against v_x",
                              eye_controls=camera_above(rrb, planes.values(), tilt=0.0),
                              line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
+
+
+def log_axes(rr, recording, entity, reach, names):
+    """Axes through the origin out to +-reach, named at their tips, with ticks at round numbers.
+
+    A 3D view looking straight down stands in for a 2D plot because Rerun's 2D views point y downwards.
+    """
+    grey = [[150, 150, 150]]
+    x, y = float(reach[0]), float(reach[1])
+    lines = rr.LineStrips3D([[[-x, 0, 0], [x, 0, 0]], [[0, -y, 0], [0, y, 0]]], colors=grey,
+                            radii=rr.components.Radius.ui_points(1.0))
+    recording.log(entity, lines, static=True)
+    tips = rr.Points3D([[x, 0, 0], [0, y, 0]], radii=[0.0], colors=[[200, 200, 200]], labels=names, show_labels=True)
+    recording.log(f"{entity}/names", tips, static=True)
+    ticks = []
+    for axis, length in enumerate((x, y)):
+        unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0  # 1 to 9 ticks each way
+        for k in range(-int(length / unit), int(length / unit) + 1):
+            if k:
+                ticks.append([k * unit if axis == 0 else 0.0, k * unit if axis == 1 else 0.0, 0.0])
+    marks = rr.Points3D(ticks, radii=rr.components.Radius.ui_points(3.0), colors=grey,
+                        labels=[f"{t[0] + t[1]:g}" for t in ticks], show_labels=True)
+    recording.log(f"{entity}/ticks", marks, static=True)
 
 
 def log_curves(rr, recording, origin, curves, kept):
