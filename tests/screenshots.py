@@ -37,13 +37,15 @@ def screenshot(rrd: Path, png: Path) -> None:
     """Open `rrd` in the viewer on a virtual screen and save what it shows to `png`."""
     width, height = WINDOW
     park_pointer = f"(sleep 3; xdotool mousemove {width - 60} 12) & " if shutil.which("xdotool") else ""
-    viewer = (f"{park_pointer}rerun --bind 127.0.0.1 --screenshot-to '{png}' "
+    # --new: a viewer of our own on a free port, never a hand-off to another one already running
+    viewer = (f"{park_pointer}rerun --new --bind 127.0.0.1 --screenshot-to '{png}' "
               f"--window-size {width}x{height} '{rrd}'")
     png.unlink(missing_ok=True)
-    subprocess.run(["xvfb-run", "-a", "-s", f"-screen 0 {width}x{height}x24", "bash", "-c", viewer],
-                   capture_output=True, timeout=300, check=False)
+    shown = subprocess.run(["xvfb-run", "-a", "-s", f"-screen 0 {width}x{height}x24", "bash", "-c", viewer],
+                           capture_output=True, text=True, timeout=300, check=False)
     if not png.is_file():
-        sys.exit(f"no screenshot of {rrd}: is xvfb installed (apt-get install xvfb mesa-vulkan-drivers)?")
+        log = "\n".join((shown.stdout + shown.stderr).splitlines()[-15:])
+        sys.exit(f"no screenshot of {rrd} (needs xvfb and mesa-vulkan-drivers); the viewer said:\n{log}")
 
 
 def shrink(png: Path, out: Path) -> None:
