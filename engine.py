@@ -497,10 +497,8 @@ def log_level(rr, recording, entity, label, value, kept):
                            columns=rr.Scalars.columns(scalars=[value, value]))
 
 
-def plot(rrb, origin, name, kept, y_range, legend):
+def plot(rr, rrb, origin, name, kept, y_range, legend):
     """A time-series view that opens on the whole run, from step 0 to the last, on a fixed y range."""
-    import rerun as rr
-
     whole_run = rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seq=0),
                              end=rrb.TimeRangeBoundary.absolute(seq=int(kept[-1])))
     return rrb.TimeSeriesView(origin=origin, name=name, axis_x=rrb.TimeAxis(view_range=whole_run),
@@ -534,7 +532,7 @@ def log_position_error(rr, rrb, recording, system, runs, kept, dt):
     logged = log_curves(rr, recording, "position_error", curves, kept)
     # log10 = 0 is an error as big as the orbit itself. (Legends sort by entity name: "zero" comes last.)
     log_level(rr, recording, "position_error/zero", "1 m, the orbit's radius", 0.0, kept)
-    return plot(rrb, "position_error", "position error against the exact orbit: log10 |q - q_exact| (m)", kept,
+    return plot(rr, rrb, "position_error", "position error against the exact orbit: log10 |q - q_exact| (m)", kept,
                 padded(np.append(logged, 0.0)), "RightBottom")
 
 
@@ -547,7 +545,7 @@ def log_energy_error(rr, rrb, recording, system, runs, kept, dt):
             curves[name] = log10_of(np.abs(energies[kept] - e0) / (abs(e0) or 1.0))
     logged = log_curves(rr, recording, "energy_error", curves, kept)
     log_level(rr, recording, "energy_error/zero", "100% of E0", 0.0, kept)  # log10 = 0: all of it
-    return plot(rrb, "energy_error", "energy error: log10 |E - E0| / |E0|", kept, padded(np.append(logged, 0.0)),
+    return plot(rr, rrb, "energy_error", "energy error: log10 |E - E0| / |E0|", kept, padded(np.append(logged, 0.0)),
                 "RightBottom")
 
 
@@ -560,18 +558,19 @@ def log_energy_change(rr, rrb, recording, system, runs, kept, dt):
             curves[name] = (energies[kept] - e0) / (abs(e0) or 1.0) * 100.0
     logged = log_curves(rr, recording, "energy_change", curves, kept)
     reach = 1.15 * float(np.abs(logged).max(initial=0.0)) or 1.0
-    return plot(rrb, "energy_change", "energy change (E - E0) / |E0|, %", kept, (-reach, reach), "LeftTop")
+    return plot(rr, rrb, "energy_change", "energy change (E - E0) / |E0|, %", kept, (-reach, reach), "LeftTop")
 
 
 def log_height(rr, rrb, recording, system, runs, kept, dt):
     """Height z against the step: the body falls and never comes back, so no error is ever paid back."""
     curves = {name: positions[:, 2] for name, (positions, _, _) in runs.items()}
-    # The three heights end within 2 m of each other after a 2 km fall: one line to the eye. Drawn
-    # widest first (the viewer draws in name order: euler, rk4, semi_implicit), all three show.
+    # The default run's heights end 2 m apart after a 2 km fall: one line to the eye. Drawn widest
+    # first (the viewer draws in name order: euler, rk4, semi_implicit), all three show.
     widths = {"euler": 7.0, "rk4": 4.0, "semi_implicit": 1.5}
     logged = log_curves(rr, recording, "height", curves, kept, widths)
-    return plot(rrb, "height", "height z (m): three curves, within 2 m of each other", kept, padded(logged),
-                "LeftBottom")
+    ends = [heights[-1] for heights in curves.values() if np.isfinite(heights[-1])]
+    apart = f": the curves end {max(ends) - min(ends):.2g} m apart" if len(ends) > 1 else ""
+    return plot(rr, rrb, "height", f"height z (m){apart}", kept, padded(logged), "LeftBottom")
 
 
 RECORDED_VIEWS = {  # per system, the views its lesson needs; the first one opens large on the left
