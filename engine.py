@@ -348,7 +348,7 @@ def layout(rrb, views, kept):
     """The first view large on the left, the others stacked on the right; the side panels folded away.
 
     The file opens with the time cursor on the last step (play state "following"): every body where its
-    run ended, every plot whole. Press play and the bodies travel their paths from the start again.
+    run ended, every plot whole. Pause, then play, and the viewer starts again from step 0.
     """
     first, *others = views
     story = rrb.Horizontal(first, rrb.Vertical(*others), column_shares=[3, 2]) if others else first
