@@ -242,3 +242,8 @@ def test_long_runs_are_thinned_in_the_recording_but_not_in_the_metrics(tmp_path,
     for (kind, origin), props in views_of(settings).items():
         if kind == "TimeSeries":
             assert props["TimeAxis:view_range"] == {"start": 0, "end": steps}, f"{origin} opens on the whole run"
+
+
+def test_every_system_has_its_views_in_the_table():
+    """A new system records only once it has its line in RECORDED_VIEWS: this says so before a student does."""
+    assert set(engine.RECORDED_VIEWS) == set(engine.SYSTEMS)
