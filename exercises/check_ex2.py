@@ -76,7 +76,7 @@ def unreadable(path: Path) -> tuple[int, str] | None:
         return 2, f"{path} is a folder; give the .py file that defines semi_implicit_step and rk4_step"
     if path.suffix != ".py":
         if path.suffix.lower() == ".py":
-            return 2, f"{path.name} ends in {path.suffix}; Python imports only files ending in .py, lowercase: rename it"
+            return 2, f"{path.name} ends in {path.suffix}: Python imports only files ending in .py: rename it"
         return 2, (f"{path.name} is not a Python file: the checker imports your steps, so they must be in a file"
                    " ending in .py (save it as, e.g., my_steps.py)")
     data = path.read_bytes()
