@@ -131,7 +131,8 @@ def run_child(path: Path, functions: list) -> tuple[dict, dict, list, int, str |
     Returns (report, arrays by function, first printed lines, number of printed lines, what was running
     when it had to be stopped or ended by itself, or None if it finished).
     """
-    job = {"file": str(path.resolve()), "functions": functions, "probes": PROBES, "runs": runs()}
+    job = {"file": str(path.resolve()), "functions": functions, "probes": PROBES,
+           "runs": {name: runs(name) for name in functions}}
     with tempfile.TemporaryDirectory(prefix="check_ex2-") as scratch:
         scratch = Path(scratch)
         (scratch / "job.json").write_text(json.dumps(job))
@@ -171,10 +172,10 @@ def keep_first_lines(stream, kept: list, count: list) -> None:
             kept.append(raw.decode("utf-8", "replace").rstrip()[:200])
 
 
-def runs() -> list:
-    """The whole runs, the same for both functions: the orbit's band, then the exact springs' order ladders."""
+def runs(name: str) -> list:
+    """The whole runs: the chapter's orbit (its energy band), then the exact springs' order ladders."""
     orbit = {"case": "orbit", "q0": ORBIT["q0"].tolist(), "v0": ORBIT["v0"].tolist(), "dt": 0.01,
-             "steps": BAND_STEPS[-1]}
+             "steps": BAND_STEPS[-1] if name == "semi_implicit_step" else BAND_STEPS[0]}
     ladders = [{"case": case, "q0": ORDER_START[0], "v0": ORDER_START[1], "dt": dt, "steps": round(ORDER_SECONDS / dt)}
                for case in ("heavy_spring", "heavy_damped_spring") for dt in ORDER_DTS_ALL]
     return [orbit, *ladders]
@@ -224,14 +225,14 @@ def order(arrays: dict, case: str, dts: tuple) -> tuple[float, float]:
     return factor, math.log2(factor) if 0 < factor < math.inf else math.nan
 
 
-def judge(name: str, report: dict, arrays: dict, stopped: str | None) -> tuple[bool, str]:
+def judge(name: str, report: dict, arrays: dict, stopped: str | None, printed: int = 0) -> tuple[bool, str]:
     """(solved, message) for one function, from what its child run left behind."""
     method, reference, nominal_order, nominal_calls = EXPECTED[name]
     if "import" in report:
         return False, f"{name}: your file stopped while Python was importing it. {exception_sentence(report['import'])}"
     result = report.get(name)
     if result is None:
-        return False, f"{name}: {stopped_sentence(stopped)}"
+        return False, f"{name}: {stopped_sentence(stopped, printed)}"
     if "exception" in result:
         error = result["exception"]
         if error["type"] == "NotImplementedError":
@@ -272,6 +273,12 @@ def judge(name: str, report: dict, arrays: dict, stopped: str | None) -> tuple[b
     for variant, message in SEMI_MISTAKES if name == "semi_implicit_step" else RK4_MISTAKES:
         if agrees(mine, on_probes(variant)).all():
             return False, f"{name}: {message.format(**figures)}"
+    scale = step_scale(mine, on_probes(reference))
+    if scale is not None:
+        return False, (f"{name}: every change your step makes is {scale:.4g} times {method}'s, on every system: the"
+                       f" weights of your final blend add up to {scale:.4g}, not 1. (k1 + 2 k2 + 2 k3 + k4) counts"
+                       " six slopes, so it is multiplied by dt/6; dt/4 would make the weights add up to 1.5, dt/3"
+                       " to 2.")
     return False, f"{name}: {unrecognised(name, data, right, factor, measured)}"
 
 
@@ -299,20 +306,17 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
     elif all(by_case[c] for c in ex2_cases.VELOCITY_FREE) and not all(by_case.values()):
         seen.append("It is right when the force ignores velocity and wrong on the damped spring and the orbit with"
                     " drag: look at which velocity you hand to force(q, v), stage by stage.")
+    elif not any(by_case.values()):
+        seen.append(f"It differs from {method} on every system, the chapter's spring included.")
     else:
         wrong = [ex2_cases.CASES[c][0] for c, ok in by_case.items() if not ok]
-        seen.append(f"It differs from {method} on {', '.join(wrong)}.")
+        seen.append(f"It differs from {method} on {'; '.join(wrong)}.")
     theirs = on_probes(reference)
     q_right, v_right = agrees(mine[:, :1], theirs[:, :1]), agrees(mine[:, 1:], theirs[:, 1:])
     if q_right.all() and not v_right.all():
         seen.append("Its q_next is right; its v_next is not.")
     elif v_right.all() and not q_right.all():
         seen.append("Its v_next is right; its q_next is not.")
-    scale = step_scale(mine, theirs)
-    if scale is not None:
-        seen.append(f"Every change it makes is {scale:.4g} times {method}'s: the weights of its final blend add up"
-                    f" to {scale:.4g}, not 1. Weights that do not sum to one (dt/4 or dt/3 where it should be dt/6)"
-                    " do this.")
     typical = int(np.median(calls))
     if typical != nominal_calls:
         seen.append(f"It calls force {typical} time{'s' * (typical != 1)} per step; {method} calls it {nominal_calls}.")
@@ -348,31 +352,32 @@ def step_scale(mine: np.ndarray, theirs: np.ndarray) -> float | None:
 
 def exception_sentence(error: dict, name: str | None = None) -> str:
     """'rk4_step raised ZeroDivisionError: ... at your_file.py line 31: `k2 = ...`'."""
-    what = f"{error['type']}: {error['message']}" if error["message"] else error["type"]
-    if error["type"] == "SystemExit":
-        what = ("it called sys.exit() or exit() (" + error["message"] + "), which would end the program; a step"
-                " returns (q_next, v_next) instead")
-    else:
-        what = f"raised {what}"
     if "line" in error:
         where = f" in {error['function']}(), {Path(error['file']).name} line {error['line']}: {error['code'].strip()}"
     else:
         where = " (inside Python or numpy, called from your code)"
+    if error["type"] == "SystemExit":
+        return (f"your code calls sys.exit() or exit() ({error['message']}){where}. That would end the whole"
+                " program; a step only returns (q_next, v_next).")
+    what = f"{error['type']}: {error['message']}" if error["message"] else error["type"]
     hint = ""
     if "object is not callable" in error["message"] and "float" in error["message"]:
         hint = " A number is being called like a function: are the parameters in the order (q, v, m, force, dt)?"
-    return f"{'it ' if name else ''}{what}{where}.{hint}"
+    return f"{'it ' if name else ''}raised {what}{where}.{hint}"
 
 
-def stopped_sentence(stopped: str | None) -> str:
+def stopped_sentence(stopped: str | None, printed: int = 0) -> str:
     how, _, stage = (stopped or "exit|start").partition("|")
     where = describe_stage(stage)
     if how == "timeout":
+        if printed > 10_000:
+            return (f"stopped after {TIME_LIMIT:.0f} s {where}, still printing ({printed:,} lines so far). Printing"
+                    " is slow, and the checker takes thousands of steps: take the prints out of your step.")
         return (f"stopped after {TIME_LIMIT:.0f} s {where} without returning. Is there a loop that never ends"
                 " (a `while` whose condition never turns false)? One step should take well under a millisecond.")
     code = how.split()[-1]
-    return (f"the checker's run of your file ended by itself ({code}) {where}. Does your code call os._exit() or"
-            " quit(), or crash Python? A step should only return (q_next, v_next).")
+    return (f"the checker's run of your file ended by itself (exit code {code}) {where}. Does your code call"
+            " os._exit(), or crash Python? A step should only return (q_next, v_next).")
 
 
 def describe_stage(stage: str) -> str:
@@ -405,7 +410,7 @@ def check(path: Path) -> tuple[bool, list[str], list[str], int]:
             solved &= ok
         if stopped and len(done) < len(pending):
             stuck = pending[len(done)]
-            messages[stuck] = judge(stuck, report, arrays, stopped)[1]
+            messages[stuck] = judge(stuck, report, arrays, stopped, lines)[1]
             solved = False
             done.append(stuck)
         pending = [name for name in pending if name not in done]

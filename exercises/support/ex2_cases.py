@@ -31,16 +31,19 @@ def force_law(name: str):
     """force(q, v) for the case: Hooke, damping, an inverse-square pull, quadratic drag."""
     _, m, k, c, mu, drag = CASES[name]
 
-    def force(q, v):
-        f = q * -k - v * c
-        if mu:
-            r = math.sqrt(float(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]))
-            f = f - q * (mu * m / (r * r * r))
-        if drag:
-            f = f - v * (drag * math.sqrt(float(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])))
-        return f
+    def spring(q, v):
+        return q * -k - v * c if c else q * -k
 
-    return force
+    def orbit(q, v):
+        x, y, z = q.tolist()
+        r = math.sqrt(x * x + y * y + z * z)
+        pull = -mu * m / (r * r * r) if r > 0.0 else math.nan
+        if not drag:
+            return q * pull
+        vx, vy, vz = v.tolist()
+        return q * pull - v * (drag * math.sqrt(vx * vx + vy * vy + vz * vz))
+
+    return orbit if mu else spring
 
 
 def energy(name: str, q, v):
