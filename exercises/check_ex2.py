@@ -29,6 +29,7 @@ if __package__ in (None, ""):  # run as a file (python exercises/check_ex2.py): 
 import numpy as np
 
 import engine
+from curriculum.common.cli import OneLineParser
 from exercises.predict import explain
 from exercises.support import ex2_cases
 from exercises.support.ex2_mistakes import RK4_MISTAKES, SEMI_MISTAKES
@@ -58,11 +59,6 @@ ORDER_DTS = {"semi_implicit_step": (0.02, 0.01), "rk4_step": (0.2, 0.1)}
 BAND_STEPS = (2000, 8000)
 EXPECTED = {"semi_implicit_step": ("semi-implicit Euler", engine.semi_implicit_step, 1, 1),
             "rk4_step": ("RK4", engine.rk4_step, 4, 4)}  # (method, reference, order, force calls per step)
-
-
-class OneLineParser(argparse.ArgumentParser):
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
 # --- before running anything: is it a Python file that compiles? ---

@@ -44,7 +44,7 @@ def measure(system_name: str = "orbit", seed: int = 0) -> dict:
         errors["position"][name], errors["energy"][name] = [], []
         for dt in LADDERS[name]:
             steps = round(SIM_SECONDS / dt)
-            trajectory, energies = engine.simulate(step, system, dt, steps)
+            trajectory, _, energies = engine.simulate(step, system, dt, steps)
             exact_final = EXACT[system_name](system, steps * dt)
             errors["position"][name].append(float(np.max(np.abs(trajectory[-1] - exact_final))))
             errors["energy"][name].append(engine.energy_drift(energies)["rel_max"])
