@@ -25,6 +25,7 @@ import math
 import re
 import sys
 import textwrap
+from pathlib import Path
 
 
 class OneOf:
@@ -109,12 +110,21 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
     if args.predict is None:
         print(question)
         print(f"Answer with {answers.forms}.")
-        print(f"\nCommit to a prediction first, then run:  python -m {parser.prog} --predict ANSWER")
+        print(f"\nCommit to a prediction first, then run:  {how_it_was_run(parser.prog)} --predict ANSWER")
         sys.exit(2)
     try:
         return answers.parse(" ".join(args.predict))
     except ValueError as problem:
         parser.exit(2, f"{parser.prog}: error: --predict: {problem}\n")
+
+
+def how_it_was_run(module: str) -> str:
+    """`python -m exercises.ex1_runaway`, or `python ex1_runaway.py` if the student ran the file itself."""
+    script = Path(sys.argv[0]) if sys.argv and sys.argv[0] else None
+    main_spec = getattr(sys.modules.get("__main__"), "__spec__", None)
+    if main_spec is None and script is not None and script.stem == module.rpartition(".")[2]:
+        return f"python {sys.argv[0]}"
+    return f"python -m {module}"
 
 
 def verdict(right: bool, answer: str, prediction) -> None:
