@@ -82,10 +82,13 @@ def unreadable(path: Path) -> tuple[int, str] | None:
                    " it was probably saved by a word processor or is not a text file. Save it as plain text.\n"
                    f"    {shown_line(data, line)}")
     try:
-        encoding, _ = tokenize.detect_encoding(iter(data.splitlines(keepends=True)).__next__)
+        try:
+            encoding, _ = tokenize.detect_encoding(iter(data.splitlines(keepends=True)).__next__)
+        except SyntaxError as error:  # not UTF-8 in the first two lines, or a bad `coding:` comment
+            encoding = "utf-8"
+            data.decode(encoding)  # raises UnicodeDecodeError with the position if that is the problem
+            return 1, f"{path}: {error.msg}"
         source = data.decode(encoding)
-    except SyntaxError as error:  # a bad coding: declaration
-        return 1, f"{path}: {error.msg}"
     except UnicodeDecodeError as error:
         line = data[: error.start].count(b"\n") + 1
         return 1, (f"{path}, line {line}: this line is not valid {encoding} text (byte {data[error.start]:#04x});"
