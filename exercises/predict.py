@@ -13,7 +13,7 @@ How an exercise uses it (ex1_runaway.py is the shortest example):
   gets one line on stderr that lists the accepted forms, and exit 2. Otherwise it returns the
   parsed prediction.
 - The answer forms read predictions the way people type them: `OneOf` (names, any case, '-' or ' '
-  for '_'), `Number` (`10000`, `10,000`, `10_000`, `1e4`) and `PerName` (`euler=2, rk4=16`, any
+  for '_'), `Number` (`10000`, `10,000`, `10_000`, `1e4`) and `PerName` (`euler=8, rk4=1`, any
   spacing, any order). Each has `.forms`, the sentence a refusal prints.
 - `verdict` and `explain` are the one place that prints the grade and the explanation, after the
   measurement. Keep measured answers out of the module docstring, --help and the question:
@@ -62,7 +62,7 @@ class Number:
 
 
 class PerName:
-    """One value per name: 'euler=2, semi_implicit=2, rk4=16' (any spacing, any order, ':' for '=')."""
+    """One value per name: 'euler=8, semi_implicit=4, rk4=1' (any spacing, any order, ':' for '=')."""
 
     def __init__(self, names, values):
         self.names, self.values = list(names), list(values)
@@ -103,7 +103,7 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
     `answers` is OneOf, Number or PerName (anything with .parse(text) and .forms). The extra
     arguments an exercise adds to `parser` are in `parser.parsed`, the argparse namespace.
     """
-    # nargs="+": `--predict euler=2, rk4=16` reaches us as several words; they are one answer
+    # nargs="+": `--predict euler=8, rk4=1` reaches us as several words; they are one answer
     parser.add_argument("--predict", metavar="ANSWER", nargs="+", help=f"your prediction: {answers.forms}")
     args = parser.parse_args(argv)
     parser.parsed = args
