@@ -31,7 +31,7 @@ class StepProblem(Exception):
 def main(job_path: str, out_dir: str) -> int:
     job = json.loads(Path(job_path).read_text())
     out = Path(out_dir)
-    status = open(out / "status.txt", "a", buffering=1)  # noqa: SIM115 (kept open for the whole run)
+    status = open(out / "status.txt", "a", buffering=1)  # line-buffered: the parent reads it after a kill
     student_file = Path(job["file"]).resolve()
     sys.path[:0] = [str(student_file.parent), str(REPO)]  # the student's helpers first, then the course
 
