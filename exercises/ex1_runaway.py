@@ -17,7 +17,7 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex1_runaway.py)
 import numpy as np
 
 import engine
-from exercises.predict import OneOf, ask, explain
+from exercises.predict import OneOf, ask, explain, verdict
 
 CHOICES = list(engine.INTEGRATORS)
 HORIZONS = [1, 2, 4, 8]  # multiples of the chapter's run
@@ -59,7 +59,7 @@ def main(argv=None) -> int:
         print(f"{name:<15}" + "".join(f"{worst:>20.3e}" for _, worst in rows))
     answer = runaway(table)
     print()
-    print(("Right: " if prediction == answer else f"Not quite: you said {prediction}, but ") + f"it is {answer}.")
+    verdict(prediction == answer, f"it is {answer}", prediction)
 
     euler, semi, rk4 = table["euler"], table["semi_implicit"], table["rk4"]
     rk4_side = "always below E0" if all(final < 0 for final, _ in rk4) else "on one side of E0"

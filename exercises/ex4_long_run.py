@@ -22,7 +22,7 @@ import numpy as np
 
 import engine
 from exercises.exact import orbit_period
-from exercises.predict import Number, ask, explain
+from exercises.predict import Number, ask, explain, verdict
 
 # Coarse on purpose, so the crossovers come within tens of thousands of steps. The last member
 # is the chapter's dt: it rides along in the same batch, for the direct estimate at dt 0.01.
@@ -107,8 +107,8 @@ def main(argv=None) -> int:
 
     measured = orbits[TIMESTEPS[-1]]
     answer = 10 ** round(math.log10(measured))
-    verdict = "Right" if guess == answer else f"Not quite: you said {guess:,}, but it is"
-    print(f"\n{verdict}: about {answer:,} orbits ({measured:,.0f} measured) at dt = {TIMESTEPS[-1]}.")
+    print()
+    verdict(guess == answer, f"it is about {answer:,} orbits ({measured:,.0f} measured) at dt = {TIMESTEPS[-1]}", guess)
 
     # How it scales: power laws through the three coarse timesteps (least squares in log-log).
     log_dt = np.log(np.array(TIMESTEPS))

@@ -5,7 +5,7 @@ How an exercise uses it (ex1_runaway.py is the shortest example):
     parser = argparse.ArgumentParser(prog="exercises.ex5_something", description=__doc__, ...)
     prediction = ask(parser, "The question, ending in a question mark?", OneOf(["a", "b"]), argv)
     ...measure, with no output before this line...
-    verdict(prediction == answer, f"it is {answer}", prediction)   # "Right: ..." or "Not quite: ..."
+    verdict(prediction == answer, f"it is {answer}", prediction)   # "Right: it is a." / "Not quite: ..."
     explain("- first thing the numbers show ...", "- second ...")
 
 - `ask` adds `--predict` to the parser. Run bare, the exercise prints the question, the accepted
@@ -128,9 +128,9 @@ def how_it_was_run(module: str) -> str:
 
 
 def verdict(right: bool, answer: str, prediction) -> None:
-    """The grade, one line: 'Right: <answer>.' or 'Not quite: you said <prediction>; <answer>.'"""
+    """The grade, one line: 'Right: it is euler.' or 'Not quite: you said rk4, but it is euler.'"""
     said = f"{prediction:,}" if isinstance(prediction, int) else prediction
-    print(f"Right: {answer}." if right else f"Not quite: you said {said}; {answer}.")
+    print(f"Right: {answer}." if right else f"Not quite: you said {said}, but {answer}.")
 
 
 def explain(*lines: str, width: int = 100) -> None:

@@ -31,7 +31,7 @@ def graded_answers() -> dict:
     ex1 = re.search(r"Right: it is (\w+)\.", section("Exercise 1")).group(1)
     ex3 = re.search(r"--predict (\S+)`", section("Exercise 3")).group(1)
     assert "3 of 3." in section("Exercise 3")
-    ex4 = int(re.search(r"Right: about ([\d,]+) orbits", section("Exercise 4")).group(1).replace(",", ""))
+    ex4 = int(re.search(r"Right: it is about ([\d,]+) orbits", section("Exercise 4")).group(1).replace(",", ""))
     return {"ex1": ex1, "ex3": dict(item.split("=") for item in ex3.split(",")), "ex4": ex4}
 
 
@@ -175,3 +175,22 @@ def test_every_exercise_runs_as_a_file_too(module, tmp_path):
         assert inside.returncode == 0 and "usage:" in inside.stdout and inside.stderr == ""
     else:
         assert inside.returncode == 2 and f"python {module}.py --predict ANSWER" in inside.stdout
+
+
+def answers_with_their_commands() -> list:
+    """(command, pasted output) for every output block in ANSWERS.md, from the `python ...` line above it."""
+    pairs = re.findall(r"`(python [^`]+)`[^`\n]*\n\n```\n(.*?)```", ANSWERS, flags=re.S)
+    return [(command, output) for command, output in pairs]
+
+
+def test_every_answer_block_says_which_command_printed_it():
+    assert len(answers_with_their_commands()) == ANSWERS.count("```\n") // 2 == 5
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command, pasted", answers_with_their_commands())
+def test_the_answers_are_what_the_commands_print_today(command, pasted):
+    """The physics is deterministic, so the teachers' figures must be reproduced to the last digit."""
+    result = subprocess.run([sys.executable, *shlex.split(command)[1:]], cwd=REPO, capture_output=True, text=True,
+                            timeout=600)
+    assert result.stdout == pasted, f"{command}: ANSWERS.md is out of date; paste the new output"

@@ -150,7 +150,7 @@ def test_ex4_finds_the_crossover_and_grades_the_horizon(tmp_path):
     assert [dt for dt, *_ in rows] == ["0.3", "0.25", "0.2"]
     orbits = [int(o.replace(",", "")) for *_, o in rows]
     assert orbits == sorted(orbits) and 316 <= orbits[-1] < 3_162  # nearest power of ten: 1,000
-    assert "Right: about 1,000 orbits" in result.stdout and "not a thousand" in one_line(result.stdout)
+    assert "Right: it is about 1,000 orbits" in result.stdout and "not a thousand" in one_line(result.stdout)
     assert "RK4 steps; still inside the band" in result.stderr  # progress while it runs
     assert list(tmp_path.iterdir()) == []
 
