@@ -17,6 +17,7 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex1_runaway.py)
 import numpy as np
 
 import engine
+from curriculum.common.cli import OneLineParser
 from exercises.predict import OneOf, ask, explain, verdict
 
 CHOICES = list(engine.INTEGRATORS)
@@ -47,7 +48,7 @@ def runaway(table: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="exercises.ex1_runaway", description=__doc__,
+    parser = OneLineParser(prog="exercises.ex1_runaway", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     prediction = ask(parser, "Which integrator sends the Kepler orbit's total energy climbing without bound?",
                      OneOf(CHOICES), argv)

@@ -21,6 +21,7 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex3_halve_dt.py
 import numpy as np
 
 import engine
+from curriculum.common.cli import OneLineParser
 from exercises.exact import kepler_position, spring_position
 from exercises.predict import PerName, ask, explain
 
@@ -118,7 +119,7 @@ def story(system_name: str, errors: dict) -> list:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="exercises.ex3_halve_dt", description=__doc__,
+    parser = OneLineParser(prog="exercises.ex3_halve_dt", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--system", choices=sorted(EXACT), default="orbit", help="which system (default orbit)")
     prediction = ask(parser,

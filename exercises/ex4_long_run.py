@@ -21,6 +21,7 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex4_long_run.py
 import numpy as np
 
 import engine
+from curriculum.common.cli import OneLineParser
 from exercises.exact import orbit_period
 from exercises.predict import Number, ask, explain, verdict
 
@@ -81,7 +82,7 @@ def show_progress(done: int, crossed: np.ndarray) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="exercises.ex4_long_run", description=__doc__,
+    parser = OneLineParser(prog="exercises.ex4_long_run", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     guess = ask(parser,
                 f"On the chapter's orbit at dt = {TIMESTEPS[-1]}, after how many orbits does RK4's energy error"

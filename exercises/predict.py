@@ -2,7 +2,7 @@
 
 How an exercise uses it (ex1_runaway.py is the shortest example):
 
-    parser = argparse.ArgumentParser(prog="exercises.ex5_something", description=__doc__, ...)
+    parser = OneLineParser(prog="exercises.ex5_something", description=__doc__, ...)  # curriculum.common.cli
     prediction = ask(parser, "The question, ending in a question mark?", OneOf(["a", "b"]), argv)
     ...measure, with no output before this line...
     verdict(prediction == answer, f"it is {answer}", prediction)   # "Right: it is a." / "Not quite: ..."
