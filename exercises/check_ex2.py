@@ -272,12 +272,12 @@ def judge(name: str, report: dict, arrays: dict, stopped: str | None, printed: i
     for variant, message in SEMI_MISTAKES if name == "semi_implicit_step" else RK4_MISTAKES:
         if agrees(mine, on_probes(variant)).all():
             return False, f"{name}: {message.format(**figures)}"
-    scale = step_scale(mine, on_probes(reference))
-    if scale is not None:
-        return False, (f"{name}: every change your step makes is {scale:.4g} times {method}'s, on every system: the"
-                       f" weights of your final blend add up to {scale:.4g}, not 1. (k1 + 2 k2 + 2 k3 + k4) counts"
-                       " six slopes, so it is multiplied by dt/6; dt/4 would make the weights add up to 1.5, dt/3"
-                       " to 2.")
+    scaled = step_scale(mine, on_probes(reference))
+    if scaled is not None:
+        return False, f"{name}: {scale_sentence(name, method, *scaled)}"
+    if agrees(mine[:, ::-1], on_probes(reference)).all():
+        return False, (f"{name}: your numbers are right but returned in the wrong order, (v_next, q_next). The engine"
+                       " unpacks q_next, v_next = step(...): return the position first.")
     return False, f"{name}: {unrecognised(name, data, right, factor, measured)}"
 
 
@@ -296,6 +296,12 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
                 " and divide by m.")
     by_case = {case: bool(right[[p["case"] == case for p in PROBES]].all()) for case in ex2_cases.CASES}
     seen = []
+    theirs = on_probes(reference)
+    off = float(np.max(np.abs(mine - theirs) / np.maximum(1.0, np.abs(theirs))))
+    if off < 1e-3:
+        seen.append(f"Its numbers are close to {method}'s but not equal: they agree to about {-math.log10(off):.0f}"
+                    " digits, where the same arithmetic agrees to 15. Is a constant rounded (0.1667 for 1/6, 0.33 for"
+                    " 1/3), or is the arithmetic in single precision (float32)?")
     if by_case["spring"] and not by_case["orbit"]:
         seen.append("It is right on the chapter's spring only: does it compute a force of its own (like -4 q)"
                     " instead of using force(q, v)?")
@@ -310,7 +316,6 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
     else:
         wrong = [ex2_cases.CASES[c][0] for c, ok in by_case.items() if not ok]
         seen.append(f"It differs from {method} on {'; '.join(wrong)}.")
-    theirs = on_probes(reference)
     q_right, v_right = agrees(mine[:, :1], theirs[:, :1]), agrees(mine[:, 1:], theirs[:, 1:])
     if q_right.all() and not v_right.all():
         seen.append("Its q_next is right; its v_next is not.")
@@ -337,16 +342,40 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
     return f"not {method} yet, and not one of the usual mistakes. What the checker measured: " + " ".join(seen)
 
 
-def step_scale(mine: np.ndarray, theirs: np.ndarray) -> float | None:
-    """s if every probe's change (q_next - q, v_next - v) is s times the reference's, for one s != 1."""
+def step_scale(mine: np.ndarray, theirs: np.ndarray) -> tuple[float, int] | None:
+    """(s, k) if every probe's change (q_next - q, v_next - v) is s * dt^k times the reference's, s * dt^k != 1.
+
+    k = 0: the weights of the final blend add up to s; k = 1: dt is in there twice; k = -1: dt is missing."""
     start = np.array([[p["q"], p["v"]] for p in PROBES])
+    dts = np.array([p["dt"] for p in PROBES])
     mine_change, their_change = (mine - start).reshape(len(mine), -1), (theirs - start).reshape(len(mine), -1)
-    ratios = (mine_change * their_change).sum(axis=1) / (their_change * their_change).sum(axis=1)
-    if not np.allclose(mine_change, ratios[:, None] * their_change, rtol=1e-7, atol=1e-12):
-        return None
-    if np.ptp(ratios) > 1e-7 * abs(ratios.mean()) or abs(ratios.mean() - 1) < 1e-6:
-        return None
-    return float(ratios.mean())
+    with np.errstate(all="ignore"):
+        ratios = (mine_change * their_change).sum(axis=1) / (their_change * their_change).sum(axis=1)
+        if not np.allclose(mine_change, ratios[:, None] * their_change, rtol=1e-7, atol=1e-12):
+            return None
+        for k in (0, 1, -1):
+            s = ratios / dts**k
+            if np.ptp(s) <= 1e-7 * abs(s.mean()) and not (k == 0 and abs(s.mean() - 1) < 1e-6):
+                return float(s.mean()), k
+    return None
+
+
+def scale_sentence(name: str, method: str, s: float, k: int) -> str:
+    """Every change the step makes is s * dt^k times the method's: say what that means."""
+    if k == 1:
+        times = "dt" if abs(s - 1) < 1e-6 else f"{s:.4g} dt"
+        return (f"every change your step makes is {times} times {method}'s: dt multiplies your update twice."
+                " A slope times dt is a change; multiply by dt once.")
+    if k == -1:
+        times = f", times {s:.4g}" if abs(s - 1) > 1e-6 else ""
+        return (f"every change your step makes is {method}'s divided by dt{times}: dt is missing from your update."
+                " A slope is a rate; multiply it by dt to get a change.")
+    if name == "rk4_step":
+        return (f"every change your step makes is {s:.4g} times RK4's, on every system: the weights of your final"
+                f" blend add up to {s:.4g}, not 1. (k1 + 2 k2 + 2 k3 + k4) counts six slopes, so it is multiplied"
+                " by dt/6; dt/4 would make the weights add up to 1.5, dt/3 to 2.")
+    return (f"every change your step makes is {s:.4g} times {method}'s, on every system: is there an extra factor"
+            " in your updates? Each is the old value plus dt times its rate.")
 
 
 def exception_sentence(error: dict, name: str | None = None) -> str:

@@ -237,6 +237,11 @@ PLANTED_MESSAGES = {
     "semi_raises.py": ("semi_implicit_step", "it raised NameError: name 'v_nxt' is not defined in semi_implicit_step(),"
                                              " semi_raises.py line 9: return q + v_nxt * dt"),
     "semi_patches_engine.py": ("semi_implicit_step", "that is explicit Euler"),
+    "semi_swapped_return.py": ("semi_implicit_step", "your numbers are right but returned in the wrong order"),
+    "semi_float32.py": ("semi_implicit_step", "they agree to about 7 digits, where the same arithmetic agrees to 15"),
+    "rk4_dt_twice.py": ("rk4_step", "every change your step makes is dt times RK4's: dt multiplies your update twice"),
+    "rk4_stacked_return.py": ("rk4_step", "returns one array of shape (6,); it must return two, (q_next, v_next)"
+                                          " (for a stacked state y, return y[:3], y[3:])"),
     "rk4_equal_weights.py": ("rk4_step", "your four slopes are weighted 1-1-1-1"),
     "rk4_full_step.py": ("rk4_step", "your midpoint stages are a full dt out"),
     "rk4_forgot_mass.py": ("rk4_step", "you forgot to divide by m"),

@@ -134,8 +134,9 @@ def as_state(result, np):  # numpy is passed in: it is imported after sys.path i
     """The step's return value as two float arrays of shape (3,); StepProblem with a sentence if it is not."""
     if result is None:
         raise StepProblem("returns None: the function ends without `return q_next, v_next`")
-    if isinstance(result, np.ndarray) and result.shape == (3,):
-        raise StepProblem("returns one array of shape (3,); it must return two, (q_next, v_next)")
+    if isinstance(result, np.ndarray) and result.ndim == 1:
+        hint = " (for a stacked state y, return y[:3], y[3:])" if result.shape == (6,) else ""
+        raise StepProblem(f"returns one array of shape {result.shape}; it must return two, (q_next, v_next){hint}")
     try:
         pair = list(result)
     except TypeError:
