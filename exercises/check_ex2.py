@@ -56,6 +56,7 @@ ORBIT = engine.build_system("orbit", np.random.default_rng(0))
 ORDER_SECONDS = 2.0
 ORDER_START = ([0.7, -0.2, 0.4], [0.3, 0.5, -0.6])
 ORDER_DTS = {"semi_implicit_step": (0.02, 0.01), "rk4_step": (0.2, 0.1)}
+ORDER_DTS_ALL = sorted({dt for dts in ORDER_DTS.values() for dt in dts}, reverse=True)  # both steps run them all
 BAND_STEPS = (2000, 8000)
 EXPECTED = {"semi_implicit_step": ("semi-implicit Euler", engine.semi_implicit_step, 1, 1),
             "rk4_step": ("RK4", engine.rk4_step, 4, 4)}  # (method, reference, order, force calls per step)
@@ -178,9 +179,6 @@ def runs(name: str) -> list:
     ladders = [{"case": case, "q0": ORDER_START[0], "v0": ORDER_START[1], "dt": dt, "steps": round(ORDER_SECONDS / dt)}
                for case in ("heavy_spring", "heavy_damped_spring") for dt in ORDER_DTS_ALL]
     return [orbit, *ladders]
-
-
-ORDER_DTS_ALL = sorted({dt for dts in ORDER_DTS.values() for dt in dts}, reverse=True)
 
 
 # --- judging: the checker's own numbers against the child's ---
