@@ -33,11 +33,13 @@ def main(job_path: str, out_dir: str) -> int:
     out = Path(out_dir)
     status = open(out / "status.txt", "a", buffering=1)  # line-buffered: the parent reads it after a kill
     student_file = Path(job["file"]).resolve()
-    sys.path[:0] = [str(student_file.parent), str(REPO)]  # the student's helpers first, then the course
+    sys.path.insert(0, str(REPO))
 
     import numpy as np
 
-    from exercises.support import ex2_cases
+    from exercises.support import ex2_cases  # before the student's folder joins the path: nothing there shadows it
+
+    sys.path.insert(0, str(student_file.parent))  # the student's own helper modules import as they would at home
 
     np.seterr(all="ignore")  # a diverging student step is measured, not warned about
     warnings.simplefilter("ignore")
