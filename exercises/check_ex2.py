@@ -399,6 +399,10 @@ def stopped_sentence(stopped: str | None, printed: int = 0) -> str:
         if printed > 10_000:
             return (f"stopped after {TIME_LIMIT:.0f} s {where}, still printing ({printed:,} lines so far). Printing"
                     " is slow, and the checker takes thousands of steps: take the prints out of your step.")
+        if " run " in f" {stage} ":
+            return (f"stopped after {TIME_LIMIT:.0f} s {where}: every single step returned, but the thousands of steps"
+                    " of a whole run did not finish in time. One step should take well under a millisecond: is"
+                    " there a slow loop, a sleep or a print in it?")
         return (f"stopped after {TIME_LIMIT:.0f} s {where} without returning. Is there a loop that never ends"
                 " (a `while` whose condition never turns false)? One step should take well under a millisecond.")
     code = how.split()[-1]

@@ -228,6 +228,8 @@ PLANTED_MESSAGES = {
     "semi_os_exit.py": ("semi_implicit_step", "the checker's run of your file ended by itself (exit code 0) during"
                                               " one step on"),
     "semi_endless.py": ("semi_implicit_step", "without returning. Is there a loop that never ends"),
+    "semi_slow.py": ("semi_implicit_step", "every single step returned, but the thousands of steps of a whole run did"
+                                           " not finish in time"),
     "semi_returns_none.py": ("semi_implicit_step", "returns None: the function ends without `return q_next, v_next`"),
     "semi_returns_one.py": ("semi_implicit_step", "returns one array of shape (3,); it must return two"),
     "semi_signature_changed.py": ("semi_implicit_step", "you changed its signature to"
@@ -284,7 +286,7 @@ def test_every_planted_file_has_its_expected_message():
 @pytest.mark.parametrize("planted", [pytest.param(name, marks=() if name in QUICK else pytest.mark.slow)
                                      for name in PLANTED_MESSAGES])
 def test_ex2_planted_file_gets_the_message_that_names_it(planted, capsys, monkeypatch):
-    if planted == "semi_endless.py":
+    if planted in ("semi_endless.py", "semi_slow.py"):
         monkeypatch.setattr(check_ex2, "TIME_LIMIT", 4.0)  # the loop is stopped, not waited for
     wrong, message = PLANTED_MESSAGES[planted]
     code, out = check(PLANTED / planted, capsys)
