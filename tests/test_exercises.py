@@ -345,9 +345,12 @@ def test_ex2_a_file_that_does_not_compile_gets_file_line_and_the_line(name, tmp_
     ("solution.txt", "solution.txt is not a Python file: the checker imports your steps"),
     ("sol.PY", "sol.PY ends in .PY: Python imports only files ending in .py"),
     ("missing.py", "there is no file"),
+    ("a_folder", "is a folder; give the .py file that defines semi_implicit_step and rk4_step"),
 ])
 def test_ex2_what_is_not_a_python_file_gets_a_sentence_and_exit_2(name, message, tmp_path):
-    if name != "missing.py":
+    if name == "a_folder":
+        (tmp_path / name).mkdir()
+    elif name != "missing.py":
         (tmp_path / name).write_text("def rk4_step(q, v, m, force, dt):\n    return q, v\n")
     result = subprocess.run([sys.executable, "-m", "exercises.check_ex2", str(tmp_path / name)], cwd=REPO,
                             capture_output=True, text=True, timeout=60)
