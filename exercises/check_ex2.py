@@ -464,8 +464,10 @@ def main(argv=None) -> int:
         for line in printed:
             print(f"  | {line}")
         print()
-    if problem:  # the file does not compile: show it as Python would, without a traceback
-        print(messages[0])
+    if problem:  # the file does not compile: the sentence, then the line as it is in the file, no traceback
+        sentence, _, code = messages[0].partition("\n")
+        explain(sentence)
+        print(code)
     else:
         explain(*messages)
     print("\nAll solved." if solved else "\nNot solved yet: read the messages above, edit, and run the checker again.")
