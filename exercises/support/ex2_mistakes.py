@@ -44,8 +44,11 @@ def new_velocity_without_dt(q, v, m, force, dt):
     return q + v_next, v_next
 
 
-MASS = ("Where the force becomes an acceleration, the acceleration is force / m, once. With the chapter's mass"
-        " of 1 no run can tell the difference; on the checker's m = 2.5 spring yours is off by that factor.")
+def mass(how_far_off: str) -> str:
+    """What a mass mistake does, said once for both steps."""
+    return ("Where the force becomes an acceleration, the acceleration is force / m, once. With the chapter's mass"
+            f" of 1 no run can tell the difference; on the checker's m = 2.5 spring your acceleration is"
+            f" {how_far_off}.")
 
 SEMI_MISTAKES = [
     (explicit_euler, "your step still moves the position with the old velocity: that is explicit Euler."
@@ -53,9 +56,11 @@ SEMI_MISTAKES = [
     (position_first, "you move the position first, then take the velocity from the force at the new position."
                      " That is the other symplectic Euler: valid, and bounded ({orbit_band}), but not MuJoCo's."
                      " mjINT_EULER updates the velocity first and moves the position with the new velocity."),
-    (semi("forgot"), "you use force(q, v) itself as the acceleration: you forgot to divide by m. " + MASS),
-    (semi("twice"), "you divide the force by m twice. " + MASS),
-    (semi("times"), "you multiply the force by m where the acceleration is force / m. " + MASS),
+    (semi("forgot"), "you use force(q, v) itself as the acceleration: you forgot to divide by m. "
+                     + mass("2.5 times too large")),
+    (semi("twice"), "you divide the force by m twice. " + mass("2.5 times too small")),
+    (semi("times"), "you multiply the force by m where the acceleration is force / m. "
+                    + mass("6.25 times too large")),
     (taylor_position, "you move the position by v dt + a dt^2 / 2, the Taylor step that velocity Verlet uses: a"
                       " second-order idea, but your velocity update is first order, and this is not semi-implicit"
                       " Euler. Semi-implicit Euler moves the position with the NEW velocity: q + dt * v_next."),
@@ -107,10 +112,12 @@ RK4_MISTAKES = [
      "all four of your slopes are taken at the start of the step, so the blend (k1 + 2 k1 + 2 k1 + k1) / 6 is"
      " just k1: that is explicit Euler in disguise. k2 and k3 are sampled half a step out, k4 a whole step."),
     (runge_kutta(CLASSICAL, RK4_WEIGHTS, mass_rule="forgot"),
-     "you use the force itself as the acceleration in your slopes: you forgot to divide by m. " + MASS),
-    (runge_kutta(CLASSICAL, RK4_WEIGHTS, mass_rule="twice"), "you divide the force by m twice. " + MASS),
+     "you use the force itself as the acceleration in your slopes: you forgot to divide by m. "
+     + mass("2.5 times too large")),
+    (runge_kutta(CLASSICAL, RK4_WEIGHTS, mass_rule="twice"),
+     "you divide the force by m twice. " + mass("2.5 times too small")),
     (runge_kutta(CLASSICAL, RK4_WEIGHTS, mass_rule="times"),
-     "you multiply the force by m where the acceleration is force / m. " + MASS),
+     "you multiply the force by m where the acceleration is force / m. " + mass("6.25 times too large")),
     (runge_kutta(CLASSICAL, RK4_WEIGHTS, stage_velocity=False),
      "your stages never hand their velocity to the force: each calls force(q_stage, v) with the starting v."
      " With forces that ignore velocity (all three of the chapter's) nobody can tell; on the checker's damped"
