@@ -322,7 +322,11 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
     typical = int(np.median(calls))
     if typical != nominal_calls:
         seen.append(f"It calls force {typical} time{'s' * (typical != 1)} per step; {method} calls it {nominal_calls}.")
-    if math.isfinite(measured):
+    if math.isfinite(measured) and measured < 0.3:
+        seen.append(f"On the damped spring (exact motion known) halving dt leaves its error where it was (divided by"
+                    f" {factor:.2f}): it does not converge to the true motion, whatever dt; {method}'s error is divided"
+                    f" by {2 ** nominal_order}. Look for a sign, or a term that is missing its dt.")
+    elif math.isfinite(measured):
         seen.append(f"On the damped spring (exact motion known) halving dt divides its error by {factor:.2f}"
                     f" (order {measured:.2f}); {method}'s is divided by {2 ** nominal_order} (order {nominal_order}).")
     else:
