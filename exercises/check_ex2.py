@@ -400,6 +400,10 @@ def stopped_sentence(stopped: str | None, printed: int = 0) -> str:
     how, _, stage = (stopped or "exit|start").partition("|")
     where = describe_stage(stage)
     if how == "timeout":
+        if where == describe_stage("import"):
+            return (f"importing your file did not finish within {TIME_LIMIT:.0f} s. Code at the top level of a file"
+                    " runs when it is imported: put trial runs under `if __name__ == \"__main__\":`, and look for a"
+                    " loop that never ends.")
         if printed > 10_000:
             return (f"stopped after {TIME_LIMIT:.0f} s {where}, still printing ({printed:,} lines so far). Printing"
                     " is slow, and the checker takes thousands of steps: take the prints out of your step.")
@@ -443,10 +447,13 @@ def check(path: Path) -> tuple[bool, list[str], list[str], int]:
             ok, messages[name] = judge(name, report, arrays, stopped)
             solved &= ok
         if stopped and len(done) < len(pending):
-            stuck = pending[len(done)]
-            messages[stuck] = judge(stuck, report, arrays, stopped, lines)[1]
+            # the function that was running is the one stopped; if it was the import, every function is
+            stage = stopped.partition("|")[2].split()
+            stuck = pending[len(done):] if not stage or stage[0] in ("start", "import") else [pending[len(done)]]
+            for name in stuck:
+                messages[name] = judge(name, report, arrays, stopped, lines)[1]
             solved = False
-            done.append(stuck)
+            done += stuck
         pending = [name for name in pending if name not in done]
     return solved, [messages[name] for name in FUNCTIONS], printed, count
 

@@ -306,6 +306,13 @@ def test_ex2_a_step_that_never_returns_is_stopped_and_the_other_still_judged(cap
     assert "rk4_step: solved" in out
 
 
+def test_ex2_a_file_whose_import_never_ends_is_stopped_once_for_both(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(check_ex2, "TIME_LIMIT", 2.0)
+    (tmp_path / "slow_import.py").write_text("import time\n\ntime.sleep(600)  # a trial run left at the top level\n")
+    code, out = check(tmp_path / "slow_import.py", capsys)
+    assert code == 1 and out.count("importing your file did not finish within 2 s") == 2
+
+
 def test_ex2_the_students_code_cannot_decide_the_exit_code(tmp_path):
     """Through the real command: a file that patches engine at import time is judged by an engine it cannot reach
     (sys.exit(0) and os._exit(0) are in the planted collection)."""
