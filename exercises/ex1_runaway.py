@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 import engine
-from exercises.predict import ask, explain
+from exercises.predict import OneOf, ask, explain
 
 CHOICES = list(engine.INTEGRATORS)
 HORIZONS = [1, 2, 4, 8]  # multiples of the chapter's run
@@ -45,11 +45,8 @@ def runaway(table: dict) -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="exercises.ex1_runaway", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    args = ask(parser,
-               "Which integrator sends the Kepler orbit's total energy climbing without bound?",
-               "Choices: " + ", ".join(CHOICES) + "  (explicit Euler, semi-implicit Euler, RK4)", argv)
-    if args.predict not in CHOICES:
-        parser.exit(2, f"exercises.ex1_runaway: error: --predict must be one of {', '.join(CHOICES)}\n")
+    prediction = ask(parser, "Which integrator sends the Kepler orbit's total energy climbing without bound?",
+                     OneOf(CHOICES), argv)
 
     table = measure()
     print(f"orbit, seed 0, dt {DT}: worst relative energy error |E - E0| / |E0| as the run gets longer")
@@ -58,7 +55,7 @@ def main(argv=None) -> int:
         print(f"{name:<15}" + "".join(f"{worst:>20.3e}" for _, worst in rows))
     answer = runaway(table)
     print()
-    print(("Right: " if args.predict == answer else f"Not quite: you said {args.predict}, but ") + f"it is {answer}.")
+    print(("Right: " if prediction == answer else f"Not quite: you said {prediction}, but ") + f"it is {answer}.")
 
     euler, semi, rk4 = table["euler"], table["semi_implicit"], table["rk4"]
     rk4_side = "always below E0" if all(final < 0 for final, _ in rk4) else "on one side of E0"

@@ -19,7 +19,7 @@ import numpy as np
 
 import engine
 from exercises.exact import kepler_position, spring_position
-from exercises.predict import ask, explain
+from exercises.predict import PerName, ask, explain
 
 SIM_SECONDS = 20.0
 LADDER = [0.04 / 2**k for k in range(7)]
@@ -59,19 +59,6 @@ def nearest_power_of_two(factor: float) -> int:
     return 2 ** round(math.log2(factor))
 
 
-def parse_prediction(text: str) -> dict:
-    """'euler=2,semi_implicit=2,rk4=16' -> {'euler': 2, ...}; ValueError with a plain message otherwise."""
-    prediction = {}
-    for item in text.split(","):
-        name, _, value = item.partition("=")
-        if name.strip() not in engine.INTEGRATORS or not value.strip().isdigit() or int(value) not in FACTORS:
-            raise ValueError(f"'{item}' is not integrator=factor with a factor from {FACTORS}")
-        prediction[name.strip()] = int(value)
-    if set(prediction) != set(engine.INTEGRATORS):
-        raise ValueError(f"give a factor for each of {', '.join(engine.INTEGRATORS)}")
-    return prediction
-
-
 def print_ladder(errors: dict) -> None:
     header = "".join(f"{f'{dt:g}->{dt / 2:g}':>19}" for dt in LADDER[:-1])
     for measure_name, by_integrator in errors.items():
@@ -87,14 +74,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="exercises.ex3_halve_dt", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--system", choices=sorted(EXACT), default="orbit")
-    args = ask(parser,
-               f"Halve dt, keeping {SIM_SECONDS:g} s of simulated time. By what factor does each integrator's"
-               " final position error shrink?",
-               f"Give one factor each from {FACTORS}, e.g. --predict euler=?,semi_implicit=?,rk4=?", argv)
-    try:
-        prediction = parse_prediction(args.predict)
-    except ValueError as problem:
-        parser.exit(2, f"exercises.ex3_halve_dt: error: --predict: {problem}\n")
+    prediction = ask(parser,
+                     f"Halve dt, keeping {SIM_SECONDS:g} s of simulated time. By what factor does each integrator's"
+                     " final position error shrink?", PerName(engine.INTEGRATORS, FACTORS), argv)
+    args = parser.parsed
 
     errors = measure(args.system)
     print(f"{args.system}, seed 0, {SIM_SECONDS:g} s of simulated time; dt ladder {LADDER[0]:g} s to {LADDER[-1]:g} s")

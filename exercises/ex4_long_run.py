@@ -18,7 +18,7 @@ import numpy as np
 
 import engine
 from exercises.exact import orbit_period
-from exercises.predict import ask, explain
+from exercises.predict import Number, ask, explain
 
 TIMESTEPS = [0.2, 0.14, 0.1]  # coarse on purpose: at dt = 0.1 the crossover takes ~5 s of compute
 CHAPTER_DT, CHAPTER_STEPS = 0.01, 2000
@@ -67,15 +67,10 @@ def rk4_creep_per_step(system: dict, dt: float, steps: int) -> tuple[float, floa
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="exercises.ex4_long_run", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    args = ask(parser,
-               f"On the chapter's orbit at dt = {TIMESTEPS[-1]}, after how many orbits does RK4's energy error"
-               " first exceed the band semi-implicit Euler stays inside?",
-               f"Choose the nearest power of ten: {', '.join(f'{c:,}' for c in CHOICES)} (orbits).", argv)
-    try:
-        guess = int(args.predict.replace(",", "").replace("_", ""))
-        assert guess in CHOICES
-    except (ValueError, AssertionError):
-        parser.exit(2, f"exercises.ex4_long_run: error: --predict must be one of {CHOICES}\n")
+    guess = ask(parser,
+                f"On the chapter's orbit at dt = {TIMESTEPS[-1]}, after how many orbits does RK4's energy error"
+                " first exceed the band semi-implicit Euler stays inside (to the nearest power of ten)?",
+                Number(CHOICES), argv)
 
     system = engine.build_system("orbit", np.random.default_rng(0))
     period = orbit_period(system)
