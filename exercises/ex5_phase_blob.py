@@ -12,13 +12,14 @@ writes a recording of the blob moving (outputs/ch3.3-engine/ex5_blob.rrd; --no-r
 import argparse
 import math
 import os
+import re
 import sys
 from pathlib import Path
 
 import numpy as np
 
 import engine
-from exercises.predict import ask, explain
+from exercises.predict import OneOf, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
 STEPS, DT, COARSE_DT = 2000, 0.01, 0.1
@@ -96,7 +97,7 @@ def closed_form_ratio(name: str, h: float, steps: int) -> float:
     return math.expm1(steps * math.log1p(one_step_determinant(name, h)[0]))
 
 
-def verdict(ratio_minus_one: float) -> str:
+def what_the_area_does(ratio_minus_one: float) -> str:
     if ratio_minus_one > SAME:
         return "grows"
     return "shrinks" if ratio_minus_one < -SAME else "stays"
@@ -134,12 +135,16 @@ def modified_energy_drift(x: np.ndarray, v: np.ndarray, dt: float) -> tuple[floa
 
 def record(path: Path, table: dict) -> None:
     """The blob's edge in the (x, v_x) plane on the `step` timeline, one colour per integrator,
-    and beside it log10 of the area's change. Written to a .partial file, then renamed."""
+    and beside it log10 of the area's change. Written to a .partial file, then renamed.
+
+    Drag the timeline: the three blobs circle the origin together, explicit Euler's swelling
+    outwards; on the right each integrator's area change is a line of its own."""
     import rerun as rr
     import rerun.blueprint as rrb
 
     blueprint = rrb.Blueprint(rrb.Horizontal(
-        rrb.Spatial2DView(origin="phase", name="the blob in (x, v_x)"),
+        rrb.Spatial2DView(origin="phase", name="the blob in (x, v_x)",
+                          visual_bounds=rrb.VisualBounds2D(x_range=[-2.0, 2.0], y_range=[-3.5, 3.5])),
         rrb.TimeSeriesView(origin="area", name="log10 |area / area0 - 1|"),
     ))
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -148,11 +153,14 @@ def record(path: Path, table: dict) -> None:
     try:
         recording.save(partial, default_blueprint=blueprint)
         every_k = EDGE_POINTS // RECORD_POINTS
+        # Rerun's 2D views point y down; we draw -v_x so that velocity points up, as on paper.
+        axes = [[[-1.8, 0.0], [1.8, 0.0]], [[0.0, 3.2], [0.0, -3.2]]]
+        recording.log("phase/axes", rr.LineStrips2D(axes, colors=[[120, 120, 120]], labels=["x", "v_x"]), static=True)
         for name, row in table.items():
             color = engine.COLORS[name]
             recording.log(f"area/{name}", rr.SeriesLines(colors=[color], names=[name]), static=True)
             for i in range(0, len(row["areas"]), RECORD_EVERY):
-                edge = np.stack([row["x"][i, ::every_k], row["v"][i, ::every_k]], axis=1)
+                edge = np.stack([row["x"][i, ::every_k], -row["v"][i, ::every_k]], axis=1)
                 recording.set_time("step", sequence=i)
                 recording.log(f"phase/{name}", rr.LineStrips2D([np.vstack([edge, edge[:1]])], colors=[color],
                                                                labels=[name]))
@@ -170,36 +178,47 @@ def record(path: Path, table: dict) -> None:
 # --- the exercise ---
 
 
-def parse_prediction(text: str) -> dict | None:
-    """'euler=grows, semi_implicit=stays, rk4=shrinks' (any order, any case, spaces allowed) or None."""
-    guess = {}
-    for part in text.replace(";", ",").split(","):
-        name, _, word = part.partition("=")
-        name, word = name.strip().lower().replace("-", "_"), word.strip().lower()
-        if name not in engine.INTEGRATORS or word not in CHOICES or name in guess:
-            return None
-        guess[name] = word
-    return guess if len(guess) == len(engine.INTEGRATORS) else None
+class EachOf:
+    """One word per name: 'euler=grows, semi-implicit: stays, RK4 = shrinks' (any spacing, order, case).
+
+    The answer form of predict.py's PerName, with words where PerName takes numbers."""
+
+    def __init__(self, names, words):
+        self.names, self.words = OneOf(names), OneOf(words)
+        self.forms = (f"name=word for each of {', '.join(names)}, separated by commas,"
+                      f" each word one of {', '.join(words)} (e.g. {names[0]}=?, {names[-1]}=?)")
+
+    def parse(self, text: str) -> dict:
+        prediction = {}
+        for item in filter(None, (part.strip() for part in re.split(r"[,;]", text))):
+            match = re.fullmatch(r"([^=:]*?)\s*[=:]\s*(.*)", item)
+            if not match:
+                raise ValueError(f"{item!r} has no '=': expected {self.forms}")
+            name_text, word_text = match.groups()
+            name, word = self.names.parse(name_text), self.words.parse(word_text)
+            if name in prediction:
+                raise ValueError(f"{name} is given twice")
+            prediction[name] = word
+        missing = [name for name in self.names.names if name not in prediction]
+        if missing:
+            raise ValueError(f"no answer for {', '.join(missing)}: expected {self.forms}")
+        return prediction
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="exercises.ex5_phase_blob", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--no-rerun", dest="rerun", action="store_false", help="skip writing the recording")
-    parser.add_argument("--rrd", type=Path, default=Path("outputs/ch3.3-engine/ex5_blob.rrd"),
+    parser.add_argument("--rrd", type=Path, metavar="PATH", default=Path("outputs/ch3.3-engine/ex5_blob.rrd"),
                         help="where the recording goes (default outputs/ch3.3-engine/ex5_blob.rrd)")
-    args = ask(parser,
-               "A disc of starting states in the spring's (x, v_x) plane runs 2000 steps of dt 0.01 under\n"
-               "each integrator. What happens to the disc's area under each one?",
-               "Answer for each integrator with one of: grows, stays, shrinks", argv)
-    guess = parse_prediction(args.predict)
-    if guess is None:
-        parser.exit(2, "exercises.ex5_phase_blob: error: --predict wants all three, e.g. "
-                       "euler=grows,semi_implicit=stays,rk4=shrinks (each one of grows, stays, shrinks)\n")
+    guess = ask(parser, "A disc of starting states in the spring's (x, v_x) plane runs 2000 steps of dt 0.01"
+                " under each integrator. What happens to the disc's area under each one?",
+                EachOf(list(engine.INTEGRATORS), CHOICES), argv)
+    args = parser.parsed
 
     omega = spring()[3]
     table = measure(DT, STEPS)
-    answers = {name: verdict(row["measured"]) for name, row in table.items()}
+    answers = {name: what_the_area_does(row["measured"]) for name, row in table.items()}
     print(f"spring (omega = {omega:g} rad/s), {EDGE_POINTS}-point edge, {STEPS} steps of dt {DT}"
           f" (omega dt = {omega * DT:g}): area after / area before - 1")
     print(f"{'integrator':<15}{'measured':>15}{'closed form':>15}{'worst rel. gap, any step':>26}   you said")
@@ -207,9 +226,8 @@ def main(argv=None) -> int:
         mark = "right" if guess[name] == answers[name] else f"no: it {answers[name]}"
         print(f"{name:<15}{row['measured']:>+15.4e}{row['closed_form']:>+15.4e}{row['worst_gap']:>26.1e}"
               f"   {guess[name]} ({mark})")
-    score = sum(guess[name] == answers[name] for name in answers)
-    print(("Right: " if score == 3 else f"Not quite ({score} of 3): ")
-          + ", ".join(f"{name} {answer}" for name, answer in answers.items()) + ".")
+    said = ", ".join(f"{name}={word}" for name, word in guess.items())
+    verdict(guess == answers, ", ".join(f"{name} {answer}" for name, answer in answers.items()), said)
 
     coarse = measure(COARSE_DT, STEPS)
     print(f"\nthe same at dt {COARSE_DT} (omega dt = {omega * COARSE_DT:g}), where RK4's change is plain:")
