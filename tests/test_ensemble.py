@@ -87,6 +87,7 @@ def test_ordering_count_names_the_seeds_where_it_fails():
     drifts = {"euler": {**ok, "diverged": np.zeros(3, bool)}, "semi_implicit": semi, "rk4": rk4}
     block = engine.ensemble_block("orbit", range(10, 13), drifts)
     assert block["ordering_holds"] == 1 and block["ordering_fails_for_seeds"] == [11, 12]
+    assert block["ordering_not_judged"] == 0
 
 
 def test_cli_ensemble_report_and_metrics_block(tmp_path):
@@ -101,7 +102,7 @@ def test_cli_ensemble_report_and_metrics_block(tmp_path):
     metrics = json.loads(text, parse_constant=lambda token: pytest.fail(f"non-strict JSON token {token}"))
     block = metrics["ensemble"]
     assert block["seeds"] == [3, 52] and block["members"] == 50 and block["ordering_holds"] == 50
-    assert block["ordering_fails_for_seeds"] == []
+    assert block["ordering_fails_for_seeds"] == [] and block["ordering_not_judged"] == 0
     for d in block["drift"].values():
         assert d["rel_final"]["min"] <= d["rel_final"]["median"] <= d["rel_final"]["max"] and d["diverged"] == 0
 
@@ -123,9 +124,10 @@ def test_ensemble_counts_diverged_members(tmp_path, capsys):
                         "--out", str(tmp_path)]) == 0
     block = json.loads((tmp_path / "metrics.json").read_text())["ensemble"]
     assert all(d["diverged"] == 5 and d["rel_max"] is None for d in block["drift"].values())
-    assert block["ordering_holds"] == 0 and block["ordering_fails_for_seeds"] == [0, 1, 2, 3, 4]
+    assert block["ordering_holds"] == 0 and block["ordering_not_judged"] == 5
+    assert block["ordering_fails_for_seeds"] == []  # diverged is "cannot judge", not a failure
     out = capsys.readouterr().out
-    assert "holds for 0 of 5 seeds" in out and "it fails for seed 0, 1, 2, 3, 4" in out
+    assert "holds for 0 of 5 seeds" in out and "5 diverged under some integrator and cannot be judged" in out
 
 
 @pytest.mark.parametrize("members, why", [("0", "--ensemble must be 1 or more"), ("-3", "must be 1 or more"),
