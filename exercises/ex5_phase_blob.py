@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import engine
+from curriculum.common import output_folder_problem
 from exercises.predict import OneOf, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
@@ -215,6 +216,9 @@ def main(argv=None) -> int:
                 " under each integrator. What happens to the disc's area under each one?",
                 EachOf(list(engine.INTEGRATORS), CHOICES), argv)
     args = parser.parsed
+    problem = output_folder_problem(args.rrd.parent) if args.rerun else None
+    if problem:
+        parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")
 
     omega = spring()[3]
     table = measure(DT, STEPS)

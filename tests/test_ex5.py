@@ -127,6 +127,14 @@ def test_unreadable_prediction_gets_one_line(bad, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_unwritable_recording_path_gets_one_line_before_measuring(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    result = run_ex5("--predict", "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(blocker / "x.rrd"))
+    assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1
+    assert "not a writable directory" in result.stderr
+
+
 def test_graded_both_ways_and_recording_has_the_blob(tmp_path, capsys):
     rrd = tmp_path / "blob.rrd"
     right = run_ex5("--predict", "Euler = grows,", "semi-implicit: stays, rk4=shrinks", "--rrd", str(rrd))
