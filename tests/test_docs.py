@@ -18,7 +18,7 @@ import pytest
 from conftest import REPO
 
 ANSWERS = (REPO / "exercises" / "solutions" / "ANSWERS.md").read_text()
-PREDICT_THEN_RUN = ["ex1_runaway", "ex3_halve_dt", "ex4_long_run"]
+PREDICT_THEN_RUN = ["ex1_runaway", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob"]
 EXERCISE_MODULES = [*PREDICT_THEN_RUN, "check_ex2", "ex2_integrators", "predict"]
 
 
@@ -32,7 +32,9 @@ def graded_answers() -> dict:
     ex3 = re.search(r"--predict (\S+)`", section("Exercise 3")).group(1)
     assert "3 of 3." in section("Exercise 3")
     ex4 = int(re.search(r"Right: it is about ([\d,]+) orbits", section("Exercise 4")).group(1).replace(",", ""))
-    return {"ex1": ex1, "ex3": dict(item.split("=") for item in ex3.split(",")), "ex4": ex4}
+    ex5 = re.search(r"The graded answer is `([^`]+)`", section("Exercise 5")).group(1)
+    return {"ex1": ex1, "ex3": dict(item.split("=") for item in ex3.split(",")), "ex4": ex4,
+            "ex5": dict(item.strip().split("=") for item in ex5.split(","))}
 
 
 def measured_figures() -> set:
@@ -60,6 +62,10 @@ def spoilers() -> list:
     ]
     for name, factor in answers["ex3"].items():
         patterns.append((rf"\b{name}\s*=\s*{factor}\b", "exercise 3's graded factor"))
+    for name, word in answers["ex5"].items():
+        patterns.append((rf"\b{name}\s*[=:]\s*{word}\b", "exercise 5's graded answer"))
+    patterns.append((r"\b(keeps?|preserves?|conserves?) (the |its )?(phase[- ]space )?area|area[- ]preserving",
+                     "exercise 5's answer for semi-implicit Euler"))
     for figure in measured_figures():
         patterns.append((rf"(?<![\d.,]){re.escape(figure)}(?![\d])", f"the measured figure {figure}"))
     return patterns
@@ -120,7 +126,7 @@ def test_the_spoiler_patterns_catch_the_old_leaks():
 
 # --- every command printed in the READMEs runs as written, from the repo root ---
 
-PLACEHOLDERS = {"<integrator>": "rk4", "<orbits>": "10", "=?": "=1",
+PLACEHOLDERS = {"<integrator>": "rk4", "<orbits>": "10", "=?": "=1", "=<word>": "=stays",
                 "path/to/your_file.py": "tests/planted/right_stacked.py"}
 # Quick: the bare questions and the checker. Slow (-m slow): the engine runs (test_cli.py runs those bare) and
 # the measuring runs, whose output tests/test_exercises.py checks with other predictions.
@@ -141,7 +147,7 @@ def printed_commands() -> list:
 
 def test_the_readmes_print_the_commands_we_expect():
     commands = [c for _, c in printed_commands()]
-    for module in ("ex1_runaway", "check_ex2", "ex3_halve_dt", "ex4_long_run"):
+    for module in ("ex1_runaway", "check_ex2", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob"):
         assert any(f"python -m exercises.{module}" in c for c in commands), module
     assert any(c.startswith("python engine.py") for c in commands)
 
@@ -156,6 +162,8 @@ def test_every_printed_command_runs_as_written(readme, command, tmp_path):
     argv = shlex.split(command)
     if argv[1] == "engine.py" and "--help" not in argv:
         argv += ["--out", str(tmp_path / "out")]
+    if "exercises.ex5_phase_blob" in argv and "--predict" in argv:
+        argv += ["--rrd", str(tmp_path / "ex5_blob.rrd")]  # its recording goes to scratch too
     result = subprocess.run([sys.executable, *argv[1:]], cwd=REPO, capture_output=True, text=True, timeout=600)
     bare_question = "--predict" not in argv and any(f"exercises.{m}" in command for m in PREDICT_THEN_RUN)
     expected = {2} if bare_question else {0, 1} if "check_ex2" in command else {0}
