@@ -136,7 +136,7 @@ def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) 
         def dissipation(q, v):
             return b * dot3(v, v)  # the power the damper takes out, one number per body
 
-        def exact(t):
+        def exact(q0, v0, t):  # the truth from any start, so a batch's rows each get their own
             return damped_oscillator(q0, v0, k, m, b, t)
 
         # What a velocity-dependent force declares for implicit_step: d force / d v, here -b
@@ -150,14 +150,15 @@ def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) 
 
 
 def damped_oscillator(q0, v0, k: float, m: float, b: float, t):
-    """The exact positions of m q'' = -k q - b q' from (q0, v0) at the times t: shape t.shape + (3,).
+    """The exact positions of m q'' = -k q - b q' from (q0, v0) at the times t: shape t.shape + q0.shape.
 
     q(t) = A(t) q0 + B(t) v0, A and B the motions that start from (1, 0) and (0, 1). With
     g = b/2m and w0 = sqrt(k/m): under-damped (g < w0) they oscillate at wd = sqrt(w0^2 - g^2)
     inside e^(-gt); critically damped (g = w0) they are (1 + gt) e^(-gt) and t e^(-gt);
     over-damped (g > w0) they mix the two decays r1, r2 = -g +- sqrt(g^2 - w0^2).
     """
-    t = np.asarray(t, dtype=float)[..., None]
+    t = np.asarray(t, dtype=float)
+    t = t.reshape(t.shape + (1,) * np.ndim(q0))  # one time per row of the answer
     g, w0 = b / (2.0 * m), math.sqrt(k / m)
     fade = np.exp(-g * t)
     if g < w0:
@@ -359,7 +360,7 @@ def against_exact(system: dict, positions, velocities, energies, kept, dt: float
     work_mismatch = (energy_lost - damper_work) / E0 shrinks like dt^order when dt halves.
     """
     with np.errstate(all="ignore"):
-        gap = positions - system["exact"](kept * dt)
+        gap = positions - system["exact"](system["q0"], system["v0"], kept * dt)
         distance = np.sqrt(dot3(gap, gap))
         swing = np.sqrt(dot3(positions, positions))
         half = len(swing) // 2
