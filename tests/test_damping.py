@@ -6,6 +6,10 @@ the closed-form solution, the damper's work, the one-step eigenvalues, and MuJoC
 
 import json
 import math
+import os
+import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +17,7 @@ import pytest
 
 import engine
 from conftest import REPO, run_engine
-from exercises import stability_map
+from exercises import ex6_stiff_damping, stability_map
 
 STIFF = 300.0  # b at dt 0.01: dt b/m = 3, the stiff case of the issue
 
@@ -288,3 +292,55 @@ def test_mujoco_warnings_leave_no_log_file_behind(tmp_path, monkeypatch):
     assert models.damped_trajectory("RK4", STIFF)[1] is not None
     assert list(tmp_path.iterdir()) == [] and Path.cwd() == tmp_path
     assert not (REPO / "MUJOCO_LOG.TXT").exists() and not (REPO / "tests" / "MUJOCO_LOG.TXT").exists()
+
+
+# --- exercise 6 ---
+
+FIGURE = re.compile(r"\de[-+]\d|%|\d\.\d{2}")  # a measured number: 3.2e-04, 22.1%, 1.97 (as tests/test_exercises.py)
+
+
+def run_ex6(*args, cwd):
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    return subprocess.run([sys.executable, "-m", "exercises.ex6_stiff_damping", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_ex6_asks_first_and_gives_nothing_away(tmp_path):
+    bare = run_ex6(cwd=tmp_path)
+    assert bare.returncode == 2
+    question, answers, blank, how = bare.stdout.splitlines()
+    assert question.endswith("?") and "b = 250" in question and blank == "" and "--predict" in how
+    helped = run_ex6("--help", cwd=tmp_path)
+    for text in (bare.stdout, helped.stdout):
+        assert not FIGURE.search(text)
+        assert "bounded are" not in text and "2.785" not in text and "yes" not in text  # no verdict, no bound
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("said, right", [("rk4, implicit", True), ("Implicit and RK4", True),
+                                         ("implicit", False), ("none", False), ("euler semi-implicit rk4", False)])
+def test_ex6_grades_the_set_of_bounded_integrators(said, right, tmp_path):
+    result = run_ex6("--predict", said, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.count("Right: the ones that stay bounded are rk4, implicit.") == right
+    assert ("Not quite: you said" in result.stdout) != right
+    assert "d->qH[m->M_rowadr[i] + m->M_rownnz[i] - 1] += m->opt.timestep * damp_deriv;" in result.stdout
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ex6_refuses_an_unknown_name_in_one_line(tmp_path):
+    result = run_ex6("--predict", "rk4, verlet", cwd=tmp_path)
+    assert result.returncode == 2 and len(result.stderr.splitlines()) == 1 and result.stdout == ""
+
+
+def test_ex6_answer_is_the_stability_map_at_its_damping():
+    """The measured verdicts equal what the one-step eigenvalues say at c = 2.5, w = 0.02."""
+    measured = {name: bounded for name, (bounded, _, _) in ex6_stiff_damping.measure().items()}
+    c, w = ex6_stiff_damping.DT * ex6_stiff_damping.DAMPING, ex6_stiff_damping.DT * 2.0
+    analytic = {}
+    for name in stability_map.NAMES:
+        interval = stability_map.analytic_interval(name, w)
+        analytic[name] = interval is not None and interval[0] <= c < interval[1]
+    assert measured == analytic == {"euler": False, "semi_implicit": False, "rk4": True, "implicit": True}
+    grid = ex6_stiff_damping.bounded_map()
+    assert grid["implicit"][-1].all() and not grid["implicit"][0, :3].any()  # any damping; not any stiffness
