@@ -85,12 +85,14 @@ def mujoco_trajectory(system_name: str, integrator: str, dt: float = 0.01, steps
 DAMPED_INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
 
 
-def damped_xml(integrator: str, dt: float, system: dict) -> str:
+def damped_xml(integrator: str, dt: float, system: dict, eulerdamp: bool = True) -> str:
+    """eulerdamp=False sets mjDSBL_EULERDAMP: MuJoCo's Euler then takes the damping explicitly."""
     joint = (f'<joint name="x" type="slide" axis="1 0 0" stiffness="{system["k"]!r}"'
              f' damping="{system["b"]!r}"/>')
+    flag = "" if eulerdamp else '<flag eulerdamp="disable"/>'
     return f"""
 <mujoco>
-  <option timestep="{dt!r}" integrator="{integrator}" gravity="0 0 0"/>
+  <option timestep="{dt!r}" integrator="{integrator}" gravity="0 0 0">{flag}</option>
   <worldbody><body name="mass">{joint}{BODY.format(m=system["m"])}</body></worldbody>
 </mujoco>"""
 
@@ -110,11 +112,12 @@ def in_scratch_folder():
             os.chdir(home)
 
 
-def damped_trajectory(integrator: str, damping: float, dt: float = 0.01, steps: int = 2000, seed: int = 0):
+def damped_trajectory(integrator: str, damping: float, dt: float = 0.01, steps: int = 2000, seed: int = 0,
+                      eulerdamp: bool = True):
     """(positions, reset_at): mj_step's positions (steps + 1, 3) on the engine's damped spring, and the
     first step at which MuJoCo found the state blown up and reset it (None if it never did)."""
     system = engine.build_system("damped_spring", np.random.default_rng(seed), damping)
-    model = mujoco.MjModel.from_xml_string(damped_xml(integrator, dt, system))
+    model = mujoco.MjModel.from_xml_string(damped_xml(integrator, dt, system, eulerdamp))
     data = mujoco.MjData(model)
     data.qpos[:] = system["q0"][:1]
     data.qvel[:] = system["v0"][:1]
