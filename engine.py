@@ -157,21 +157,24 @@ def damped_oscillator(q0, v0, k: float, m: float, b: float, t):
     inside e^(-gt); critically damped (g = w0) they are (1 + gt) e^(-gt) and t e^(-gt);
     over-damped (g > w0) they mix the two decays r1, r2 = -g +- sqrt(g^2 - w0^2).
     """
-    t = np.asarray(t, dtype=float)
-    t = t.reshape(t.shape + (1,) * np.ndim(q0))  # one time per row of the answer
     g, w0 = b / (2.0 * m), math.sqrt(k / m)
-    fade = np.exp(-g * t)
-    if g < w0:
-        wd = math.sqrt(w0 * w0 - g * g)
-        a, b_t = fade * (np.cos(wd * t) + g / wd * np.sin(wd * t)), fade * np.sin(wd * t) / wd
-    elif g == w0:
-        a, b_t = fade * (1.0 + g * t), t * fade
-    else:
+
+    def basis(t):  # A(t), B(t) at one time, with math's exp/cos/sin: numpy picks SIMD versions
+        fade = math.exp(-g * t)  # by CPU, whose last bits differ, and this truth goes into metrics.json
+        if g < w0:
+            wd = math.sqrt(w0 * w0 - g * g)
+            return fade * (math.cos(wd * t) + g / wd * math.sin(wd * t)), fade * math.sin(wd * t) / wd
+        if g == w0:
+            return fade * (1.0 + g * t), t * fade
         r2 = -g - math.sqrt(g * g - w0 * w0)
         r1 = w0 * w0 / r2  # the slow root from r1 r2 = w0^2: -g + sqrt(...) would cancel away its digits
-        a = (r1 * np.exp(r2 * t) - r2 * np.exp(r1 * t)) / (r1 - r2)
-        b_t = (np.exp(r1 * t) - np.exp(r2 * t)) / (r1 - r2)
-    return a * q0 + b_t * v0
+        return ((r1 * math.exp(r2 * t) - r2 * math.exp(r1 * t)) / (r1 - r2),
+                (math.exp(r1 * t) - math.exp(r2 * t)) / (r1 - r2))
+
+    times = np.asarray(t, dtype=float)
+    ab = np.array([basis(time) for time in times.ravel().tolist()]).reshape(times.shape + (2,))
+    one_per_row = times.shape + (1,) * np.ndim(q0)  # broadcast each time over a body's (or a batch's) q0
+    return ab[..., 0].reshape(one_per_row) * q0 + ab[..., 1].reshape(one_per_row) * v0
 
 
 def build_ensemble(name: str, seeds) -> dict:
@@ -359,34 +362,33 @@ def against_exact(system: dict, positions, velocities, energies, kept, dt: float
     by composite Simpson over the kept states (order 4, so it does not hide RK4's own order 4);
     work_mismatch = (energy_lost - damper_work) / E0 shrinks like dt^order when dt halves.
     """
-    with np.errstate(all="ignore"):
-        gap = positions - system["exact"](system["q0"], system["v0"], kept * dt)
-        distance = np.sqrt(dot3(gap, gap))
-        swing = np.sqrt(dot3(positions, positions))
-        half = len(swing) // 2
-        finite = bool(np.isfinite(swing).all() and np.isfinite(energies).all())
-        bounded = finite and swing[half:].max() <= swing[:half + 1].max() * (1.0 + BOUNDED_SLACK)
-        spacing = kept[1:] - kept[:-1]
-        uniform = len(kept) - 1 if (spacing == spacing[0]).all() else len(kept) - 2  # thinned: drop the short tail
-        work = simpson(system["dissipation"](positions[: uniform + 1], velocities[: uniform + 1]), spacing[0] * dt)
-        lost = float(energies[0] - energies[kept[uniform]])
-    if not finite:
+    if not np.isfinite(energies).all():  # the energy squares q and v: finite energy, finite everything
         return {"err_max": None, "err_final": None, "bounded": False, "energy_lost": None,
                 "damper_work": None, "work_mismatch": None}
+    gap = positions - system["exact"](system["q0"], system["v0"], kept * dt)
+    distance = np.sqrt(dot3(gap, gap))
+    swing = np.sqrt(dot3(positions, positions))
+    half = len(swing) // 2
+    bounded = swing[half:].max() <= swing[:half + 1].max() * (1.0 + BOUNDED_SLACK)
+    spacing = kept[1:] - kept[:-1]
+    uniform = len(kept) - 1 if (spacing == spacing[0]).all() else len(kept) - 2  # thinned: drop the short tail
+    work = simpson(system["dissipation"](positions[: uniform + 1], velocities[: uniform + 1]), spacing[0] * dt)
+    lost = float(energies[0] - energies[kept[uniform]])
     return {"err_max": float(distance.max()), "err_final": float(distance[-1]), "bounded": bool(bounded),
             "energy_lost": lost, "damper_work": work, "work_mismatch": (lost - work) / float(energies[0])}
 
 
 def simpson(values, h: float) -> float:
     """Composite Simpson's rule over equally spaced samples; an odd count of intervals ends with the 3/8 rule."""
-    n = len(values) - 1
+    f = [float(value) for value in values]  # math.fsum: exactly rounded, the same on every CPU
+    n = len(f) - 1
     if n < 3:  # too few for Simpson: the trapezoid
-        return float(h * (0.5 * values[0] + values[1:n].sum() + 0.5 * values[n])) if n else 0.0
+        return h * (0.5 * f[0] + math.fsum(f[1:n]) + 0.5 * f[n]) if n else 0.0
     head = n if n % 2 == 0 else n - 3  # even part by Simpson 1-4-2-4-...-1, the rest by 3/8
-    total = h / 3.0 * (values[0] + 4.0 * values[1:head:2].sum() + 2.0 * values[2:head:2].sum() + values[head])
+    total = h / 3.0 * (f[0] + 4.0 * math.fsum(f[1:head:2]) + 2.0 * math.fsum(f[2:head:2]) + f[head])
     if head < n:
-        total += 3.0 * h / 8.0 * (values[n - 3] + 3.0 * values[n - 2] + 3.0 * values[n - 1] + values[n])
-    return float(total)
+        total += 3.0 * h / 8.0 * (f[n - 3] + 3.0 * f[n - 2] + 3.0 * f[n - 1] + f[n])
+    return total
 
 
 # --- record ---
