@@ -3,7 +3,8 @@
 A state (q, v, m), a force law and three integrators (explicit Euler, semi-implicit
 Euler, RK4), run on three conservative systems. Energy is the referee: a perfect
 integrator would hold it constant, so how far each one drifts, and in which shape,
-is what we measure.
+is what we measure. A damped spring shows the next rung: its referee is its exact
+solution, and a fourth step, implicit in the damping as MuJoCo's Euler is, joins in.
 
 Run it from the repo root:
 
