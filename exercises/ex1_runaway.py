@@ -1,7 +1,7 @@
 """Exercise 1, predict then run: which integrator sends the orbit's energy climbing without bound?
 
     python -m exercises.ex1_runaway                    # the question, and nothing else
-    python -m exercises.ex1_runaway --predict euler    # commit, then see the evidence
+    python -m exercises.ex1_runaway --predict NAME     # commit (euler, semi_implicit or rk4), then see
 
 The evidence is the chapter's orbit (seed 0, dt 0.01) run 1x, 2x, 4x and 8x as long as the
 chapter's 2000 steps. A runaway error grows with the horizon; a bounded one does not.
@@ -9,6 +9,10 @@ chapter's 2000 steps. A runaway error grows with the horizon; a bounded one does
 
 import argparse
 import sys
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a file (python exercises/ex1_runaway.py): make the repo importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 

@@ -14,6 +14,10 @@ import argparse
 import math
 import re
 import sys
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a file (python exercises/ex6_stiff_damping.py): make the repo importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 

@@ -13,7 +13,7 @@ How an exercise uses it (ex1_runaway.py is the shortest example):
   gets one line on stderr that lists the accepted forms, and exit 2. Otherwise it returns the
   parsed prediction.
 - The answer forms read predictions the way people type them: `OneOf` (names, any case, '-' or ' '
-  for '_'), `Number` (`10000`, `10,000`, `10_000`, `1e4`) and `PerName` (`euler=2, rk4=16`, any
+  for '_'), `Number` (`10000`, `10,000`, `10_000`, `1e4`) and `PerName` (`euler=8, rk4=1`, any
   spacing, any order). Each has `.forms`, the sentence a refusal prints.
 - `verdict` and `explain` are the one place that prints the grade and the explanation, after the
   measurement. Keep measured answers out of the module docstring, --help and the question:
@@ -25,6 +25,7 @@ import math
 import re
 import sys
 import textwrap
+from pathlib import Path
 
 
 class OneOf:
@@ -61,7 +62,7 @@ class Number:
 
 
 class PerName:
-    """One value per name: 'euler=2, semi_implicit=2, rk4=16' (any spacing, any order, ':' for '=')."""
+    """One value per name: 'euler=8, semi_implicit=4, rk4=1' (any spacing, any order, ':' for '=')."""
 
     def __init__(self, names, values):
         self.names, self.values = list(names), list(values)
@@ -102,19 +103,28 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
     `answers` is OneOf, Number or PerName (anything with .parse(text) and .forms). The extra
     arguments an exercise adds to `parser` are in `parser.parsed`, the argparse namespace.
     """
-    # nargs="+": `--predict euler=2, rk4=16` reaches us as several words; they are one answer
+    # nargs="+": `--predict euler=8, rk4=1` reaches us as several words; they are one answer
     parser.add_argument("--predict", metavar="ANSWER", nargs="+", help=f"your prediction: {answers.forms}")
     args = parser.parse_args(argv)
     parser.parsed = args
     if args.predict is None:
         print(question)
         print(f"Answer with {answers.forms}.")
-        print(f"\nCommit to a prediction first, then run:  python -m {parser.prog} --predict ANSWER")
+        print(f"\nCommit to a prediction first, then run:  {how_it_was_run(parser.prog)} --predict ANSWER")
         sys.exit(2)
     try:
         return answers.parse(" ".join(args.predict))
     except ValueError as problem:
         parser.exit(2, f"{parser.prog}: error: --predict: {problem}\n")
+
+
+def how_it_was_run(module: str) -> str:
+    """`python -m exercises.ex1_runaway`, or `python ex1_runaway.py` if the student ran the file itself."""
+    script = Path(sys.argv[0]) if sys.argv and sys.argv[0] else None
+    main_spec = getattr(sys.modules.get("__main__"), "__spec__", None)
+    if main_spec is None and script is not None and script.stem == module.rpartition(".")[2]:
+        return f"python {sys.argv[0]}"
+    return f"python -m {module}"
 
 
 def verdict(right: bool, answer: str, prediction) -> None:

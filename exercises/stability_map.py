@@ -17,6 +17,10 @@ stays bounded twice, independently:
 
 import math
 import sys
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a file (python exercises/stability_map.py): make the repo importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
