@@ -190,7 +190,11 @@ def largest_difference(table) -> float:
     return worst
 
 
-def main() -> int:
+def main(argv=None) -> int:
+    import argparse
+
+    argparse.ArgumentParser(prog="exercises.stability_map", description=__doc__,
+                            formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
     table = stability_table()
     print(f"Bounded range of the damping c = dt b/m at each stiffness w = dt sqrt(k/m): measured by bisection on"
           f" runs of {RUN_STEPS} steps, (analytic) from the one-step matrix's eigenvalues.\n")

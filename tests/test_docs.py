@@ -18,7 +18,7 @@ import pytest
 from conftest import REPO
 
 ANSWERS = (REPO / "exercises" / "solutions" / "ANSWERS.md").read_text()
-PREDICT_THEN_RUN = ["ex1_runaway", "ex3_halve_dt", "ex4_long_run"]
+PREDICT_THEN_RUN = ["ex1_runaway", "ex3_halve_dt", "ex4_long_run", "ex6_stiff_damping"]
 EXERCISE_MODULES = [*PREDICT_THEN_RUN, "check_ex2", "ex2_integrators", "predict"]
 
 
