@@ -41,7 +41,8 @@ class SomeOf:
                       " (or 'none')")
 
     def parse(self, text: str) -> frozenset:
-        words = [word for word in re.split(r"[,;+\s]+|\band\b", text.strip().lower()) if word]
+        text = re.sub(r"semi[\s_-]+implicit", "semi_implicit", text.strip().lower())  # one name, however spaced
+        words = [word for word in re.split(r"[,;+\s]+|\band\b", text) if word]
         if words == ["none"]:
             return frozenset()
         one = OneOf(self.names)

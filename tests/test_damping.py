@@ -348,10 +348,12 @@ def test_ex6_grades_the_set_of_bounded_integrators(tmp_path):
 
 
 @pytest.mark.parametrize("said, right", [("Implicit and RK4", True), ("implicit", False), ("none", False),
-                                         ("euler semi-implicit rk4", False)])
+                                         ("euler semi-implicit rk4", False), ("Semi implicit, RK4", False),
+                                         ("rk4,implicit", True)])
 def test_ex6_reads_predictions_as_typed(said, right):
     parsed = ex6_stiff_damping.SomeOf(ex6_stiff_damping.NAMES).parse(said)
     assert (parsed == {"rk4", "implicit"}) == right
+    assert said != "Semi implicit, RK4" or parsed == {"semi_implicit", "rk4"}
 
 
 def test_ex6_refuses_an_unknown_name_in_one_line(tmp_path):
