@@ -50,6 +50,13 @@ def test_damped_spring_keeps_the_batched_contract():
                           damped(seed=3)["exact"](damped(seed=3)["q0"], damped(seed=3)["v0"], t))
 
 
+def test_run_knows_the_implicit_step_where_it_exists():
+    positions, _, _ = engine.run("damped_spring", "implicit", steps=10)
+    assert np.array_equal(positions, ours("implicit", engine.DAMPING, steps=10))
+    with pytest.raises(KeyError):
+        engine.run("spring", "implicit", steps=10)
+
+
 def test_conservative_systems_are_offered_only_the_chapters_three():
     for name in engine.SYSTEMS:
         system = engine.build_system(name, np.random.default_rng(0))
