@@ -3,18 +3,22 @@
 A state (q, v, m), a force law and three integrators (explicit Euler, semi-implicit
 Euler, RK4), run on three conservative systems. Energy is the referee: a perfect
 integrator would hold it constant, so how far each one drifts, and in which shape,
-is what we measure.
+is what we measure. A damped spring shows the next rung: its referee is its exact
+solution, and a fourth step, implicit in the damping as MuJoCo's Euler is, joins in.
 
 Run it from the repo root:
 
     python engine.py                       # Kepler orbit, all three integrators, with a recording
     python engine.py --system freefall     # the case where the symplectic advantage vanishes
     python engine.py --smoke --no-rerun    # fixed 600 steps: what CI diffs byte for byte
+    python engine.py --ensemble 1000       # seeds 0..999 stepped together: does the ordering always hold?
+    python engine.py --system damped_spring --damping 300   # stiff damping: the implicit rung
 
 Open the recording with `rerun outputs/ch3.3-engine/engine.rrd`.
 """
 
 import argparse
+import functools
 import json
 import math
 import sys
@@ -39,7 +43,12 @@ from curriculum.common import (
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
 MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
+CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
 PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
+ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
+ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
+SHOWN_MEMBERS = 20  # member paths an ensemble's recording draws: enough to see the spread, few enough to open
+BOUNDED_SLACK = 1e-3  # a steady oscillation's sampled peaks differ by less than this between halves
 METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '_' and '-'
 
@@ -60,19 +69,23 @@ APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '
 # libm's pow; both round differently on different CPUs. So the physics squares, adds and
 # cubes with plain arithmetic (dot3, r * r * r), which IEEE rounds the same everywhere.
 
-SYSTEMS = ("orbit", "spring", "freefall")
+SYSTEMS = ("orbit", "spring", "freefall")  # conservative: energy is the referee
+DAMPED_SYSTEMS = ("damped_spring",)  # dissipative: the closed-form solution is the referee
+DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (300 is the stiff case)
 
 
 def dot3(a, b):
     """a . b over the last axis, summed in a fixed order: (3,) gives a number, (N, 3) gives (N,)."""
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+    products = a * b
+    return products[..., 0] + products[..., 1] + products[..., 2]
 
 
-def build_system(name: str, rng: np.random.Generator) -> dict:
-    """Return {name, q0, v0, m, force, energy, exact} for one of the three conservative systems.
+def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) -> dict:
+    """Return {name, q0, v0, m, force, energy, exact} for one of the systems.
 
     The seed jitters one initial condition per system (orbit speed, spring stretch,
     launch speed), so --seed matters while the ordering of the drifts does not change.
+    The damped spring also declares dforce_dv and dissipation (see there).
     """
     if name == "orbit":
         # A unit mass around a fixed attractor at the origin, inverse-square pull, GM = mu = 1.
@@ -126,8 +139,33 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
             t = times_for(t, q0)
             return q0 + v0 * t + 0.5 * gravity * t * t  # the parabola
 
+    elif name == "damped_spring":
+        # The spring again, with a damper pulling against the velocity: force -k q - b v.
+        # Energy now drains away, so the referee is the closed-form solution instead, and the
+        # energy lost must match the damper's work, the time integral of b |v|^2.
+        k, m, b = 4.0, 1.0, float(damping)
+        q0 = np.array([1.0 + rng.uniform(-0.1, 0.1), 0.0, 0.0])
+        v0 = np.zeros(3)
+
+        def force(q, v):
+            return -k * q - b * v  # spring plus damper, added in MuJoCo's order
+
+        def energy(q, v):
+            return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring: what the damper drains
+
+        def dissipation(q, v):
+            return b * dot3(v, v)  # the power the damper takes out, one number per body
+
+        def exact(q0, v0, t):  # the truth from any start, so a batch's rows each get their own
+            return damped_oscillator(q0, v0, k, m, b, t)
+
+        # What a velocity-dependent force declares for implicit_step: d force / d v, here -b
+        # times the identity (MuJoCo's qDeriv). Conservative systems have none.
+        return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy,
+                "dforce_dv": -b, "dissipation": dissipation, "exact": exact, "k": k, "b": b}
+
     else:
-        raise ValueError(f"unknown system {name!r}; choose one of {', '.join(SYSTEMS)}")
+        raise ValueError(f"unknown system {name!r}; choose one of {', '.join(SYSTEMS + DAMPED_SYSTEMS)}")
     return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact}
 
 
@@ -158,6 +196,34 @@ def kepler_orbit(q0, v0, t, mu):
     f = 1.0 - a / r0 * (1.0 - np.cos(de))
     g = t - (de - np.sin(de)) / n
     return f[..., None] * q0 + g[..., None] * v0
+
+
+def damped_oscillator(q0, v0, k: float, m: float, b: float, t):
+    """The exact positions of m q'' = -k q - b q' from (q0, v0) at the times t: shape t.shape + q0.shape.
+
+    q(t) = A(t) q0 + B(t) v0, A and B the motions that start from (1, 0) and (0, 1). With
+    g = b/2m and w0 = sqrt(k/m): under-damped (g < w0) they oscillate at wd = sqrt(w0^2 - g^2)
+    inside e^(-gt); critically damped (g = w0) they are (1 + gt) e^(-gt) and t e^(-gt);
+    over-damped (g > w0) they mix the two decays r1, r2 = -g +- sqrt(g^2 - w0^2).
+    """
+    g, w0 = b / (2.0 * m), math.sqrt(k / m)
+
+    def basis(t):  # A(t), B(t) at one time, with math's exp/cos/sin: numpy picks SIMD versions
+        fade = math.exp(-g * t)  # by CPU, whose last bits differ, and this truth goes into metrics.json
+        if g < w0:
+            wd = math.sqrt(w0 * w0 - g * g)
+            return fade * (math.cos(wd * t) + g / wd * math.sin(wd * t)), fade * math.sin(wd * t) / wd
+        if g == w0:
+            return fade * (1.0 + g * t), t * fade
+        r2 = -g - math.sqrt(g * g - w0 * w0)
+        r1 = w0 * w0 / r2  # the slow root from r1 r2 = w0^2: -g + sqrt(...) would cancel away its digits
+        return ((r1 * math.exp(r2 * t) - r2 * math.exp(r1 * t)) / (r1 - r2),
+                (math.exp(r1 * t) - math.exp(r2 * t)) / (r1 - r2))
+
+    times = np.asarray(t, dtype=float)
+    ab = np.array([basis(time) for time in times.ravel().tolist()]).reshape(times.shape + (2,))
+    one_per_row = times.shape + (1,) * np.ndim(q0)  # broadcast each time over a body's (or a batch's) q0
+    return ab[..., 0].reshape(one_per_row) * q0 + ab[..., 1].reshape(one_per_row) * v0
 
 
 def build_ensemble(name: str, seeds) -> dict:
@@ -220,7 +286,36 @@ def rk4_step(q, v, m, force, dt):
 
 
 INTEGRATORS = {"euler": euler_step, "semi_implicit": semi_implicit_step, "rk4": rk4_step}
-COLORS = {"euler": [217, 76, 64], "semi_implicit": [76, 175, 80], "rk4": [64, 115, 217]}
+COLORS = {"euler": [217, 76, 64], "semi_implicit": [76, 175, 80], "rk4": [64, 115, 217], "implicit": [155, 89, 182]}
+
+
+# The next rung, for systems whose force depends on the velocity (a damper): it needs one
+# more thing from the system, the force's derivative dforce_dv, so it is offered only there.
+
+
+def implicit_step(q, v, m, force, dt, dforce_dv):
+    """Semi-implicit Euler with the velocity-dependent force taken at the NEW velocity.
+
+    Solves m (v_new - v) / dt = force(q, v) + dforce_dv (v_new - v) for v_new, then q += dt * v_new.
+    With a linear damper that is the force at (q_old, v_new): implicit in the damping, explicit
+    in the spring. It is MuJoCo's Euler on a joint with damping, and its implicitfast (M - h qDeriv).
+    Order 1; 1 force evaluation per step; with dforce_dv = 0 it is semi_implicit_step exactly.
+    Bounded for any damping, but not for any stiffness: it needs dt sqrt(k/m) < sqrt(4 + 2 dt b/m).
+    """
+    # MuJoCo factorizes m - dt * qDeriv and multiplies by the inverse of its diagonal, so we do
+    # too and match it to the bit (its mjINT_IMPLICIT divides instead: last-bit differences).
+    inverse_mass = 1.0 / (m - dt * dforce_dv)
+    a = force(q, v) * inverse_mass
+    v_next = v + dt * a
+    q_next = q + dt * v_next  # the new velocity moves the position, as in semi_implicit_step
+    return q_next, v_next
+
+
+def integrators_for(system: dict) -> dict:
+    """The chapter's three, plus implicit_step where the system declares dforce_dv."""
+    if "dforce_dv" not in system:
+        return dict(INTEGRATORS)
+    return {**INTEGRATORS, "implicit": functools.partial(implicit_step, dforce_dv=system["dforce_dv"])}
 
 
 # --- simulate and measure ---
@@ -233,26 +328,33 @@ def simulate(step_fn, system: dict, dt: float, steps: int, every: int = 1, progr
     step and always the last; with every=1 that is all of them, (steps + 1, 3), or
     (steps + 1, N, 3) for a batch. energies: the total energy at every step, row 0 the start.
     A state that blows up is carried on as inf/NaN without warnings, and energy_drift()
-    reports the step where that began. progress(done), if given, is called ~20 times.
+    reports the step where that began. progress(done), if given, is called as chunks finish.
     """
     q = np.array(system["q0"], dtype=float)
     v = np.array(system["v0"], dtype=float)
     m, force, energy = system["m"], system["force"], system["energy"]
     check_contract(system, q, v)
-    positions = np.empty((len(kept_steps(steps, every)), *q.shape))
+    kept = kept_steps(steps, every)
+    positions = np.empty((len(kept), *q.shape))
     velocities = np.empty_like(positions)
     energies = np.empty((steps + 1, *q.shape[:-1]))
     positions[0], velocities[0], energies[0] = q, v, energy(q, v)
-    row, report_every = 1, max(steps // 20, 1)
+    # The loop only steps and stores. The referee, energy, is evaluated a chunk of steps at a time:
+    # a chunk of states is a batch like any other (see the contract), so one call does thousands.
+    chunk = min(steps, max(1, CHUNK_VALUES // q.size))
+    q_chunk, v_chunk = np.empty((chunk, *q.shape)), np.empty((chunk, *q.shape))
     with np.errstate(all="ignore"):
-        for i in range(1, steps + 1):
-            q, v = step_fn(q, v, m, force, dt)
-            energies[i] = energy(q, v)
-            if i % every == 0 or i == steps:
-                positions[row], velocities[row] = q, v
-                row += 1
-            if progress and (i % report_every == 0 or i == steps):
-                progress(i)
+        for first in range(1, steps + 1, chunk):
+            count = min(chunk, steps + 1 - first)
+            for j in range(count):
+                q, v = step_fn(q, v, m, force, dt)
+                q_chunk[j], v_chunk[j] = q, v
+            batch = energy(q_chunk[:count].reshape(-1, 3), v_chunk[:count].reshape(-1, 3))
+            energies[first:first + count] = batch.reshape(count, *q.shape[:-1])
+            rows = slice(*np.searchsorted(kept, [first, first + count]))  # kept steps inside this chunk
+            positions[rows], velocities[rows] = q_chunk[kept[rows] - first], v_chunk[kept[rows] - first]
+            if progress:
+                progress(first + count - 1)
     return positions, velocities, energies
 
 
@@ -280,7 +382,7 @@ def check_contract(system: dict, q, v) -> None:
 def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0, every: int = 1):
     """build_system + simulate, as the exercises and tests call it: (positions, velocities, energies)."""
     system = build_system(system_name, np.random.default_rng(seed))
-    return simulate(INTEGRATORS[integrator], system, dt, steps, every)
+    return simulate(integrators_for(system)[integrator], system, dt, steps, every)
 
 
 def energy_drift(energies: np.ndarray) -> dict:
@@ -306,21 +408,132 @@ def energy_drift(energies: np.ndarray) -> dict:
     }
 
 
+# --- ensembles: many seeds at once ---
+# build_ensemble() stacks N starting states into (N, 3) arrays and simulate() steps them
+# together: the same arithmetic on every row, so each member is bit for bit its own single
+# run, at a fraction of the cost per member. What we keep is what the report needs: every
+# member's energy at every step, but positions only every few steps.
+
+
+def ensemble_every(steps: int, members: int) -> int:
+    """Keep every k-th state so an ensemble's positions stay under ENSEMBLE_KEPT_VALUES numbers."""
+    return max(1, math.ceil((steps + 1) * members * 3 / ENSEMBLE_KEPT_VALUES))
+
+
+def ensemble_bytes(steps: int, members: int) -> int:
+    """Memory one integrator's ensemble holds at its peak: every energy (8 bytes) and whether it is
+    finite (1 byte), the kept positions and velocities, and the recording's error spread over them."""
+    return 9 * (steps + 1) * members + 3 * 8 * ENSEMBLE_KEPT_VALUES
+
+
+def ensemble_drift(energies: np.ndarray) -> dict:
+    """energy_drift() for every member of an ensemble at once; energies is (steps + 1, N).
+
+    Returns arrays of N: rel_final, rel_max (NaN where the member diverged) and diverged; each
+    member's figures are the bits energy_drift() gives for that member alone."""
+    e0 = energies[0]
+    scale = np.where(e0 != 0.0, np.abs(e0), 1.0)
+    with np.errstate(all="ignore"):
+        diverged = ~np.isfinite(energies).all(axis=0)
+        rel_final = np.where(diverged, np.nan, (energies[-1] - e0) / scale)
+        # the worst excursion is above the highest energy or below the lowest: no (steps, N) temporaries,
+        # and the same bits as max |E - E0| because subtracting E0 keeps the order
+        worst = np.maximum(np.max(energies, axis=0) - e0, e0 - np.min(energies, axis=0))
+        rel_max = np.where(diverged, np.nan, worst / scale)
+    return {"rel_final": rel_final, "rel_max": rel_max, "diverged": diverged}
+
+
+def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    """(len(kept), 3): min, median and max over the members of |E - E0| / |E0| at the kept steps."""
+    e0 = energies[0]
+    with np.errstate(all="ignore"):
+        relative = np.abs(energies[kept] - e0) / np.where(e0 != 0.0, np.abs(e0), 1.0)
+    relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
+    return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
+
+
+def ordering_holds(drifts: dict) -> np.ndarray:
+    """Per member: |euler rel_final| > semi_implicit rel_max > rk4 rel_max (False where any diverged)."""
+    euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
+    with np.errstate(invalid="ignore"):
+        return (np.abs(euler["rel_final"]) > semi["rel_max"]) & (semi["rel_max"] > rk4["rel_max"])
+
+
+def spread(values: np.ndarray) -> dict | None:
+    """min, median and max over the members that did not diverge (None if all did)."""
+    finite = values[np.isfinite(values)]
+    if len(finite) == 0:
+        return None
+    return {"min": float(finite.min()), "median": float(np.median(finite)), "max": float(finite.max())}
+
+
+def summarize_ensemble(energies: np.ndarray, positions: np.ndarray, kept: np.ndarray, for_recording: bool) -> dict:
+    """What an ensemble run keeps of one integrator: each member's drift and, for the recording,
+    the first members' paths and the spread of all the members' error curves."""
+    summary = ensemble_drift(energies)
+    if for_recording:
+        summary["paths"] = positions[:, :SHOWN_MEMBERS].copy()
+        summary["error_spread"] = error_spread(energies, kept)
+    return summary
+
+
+def against_exact(system: dict, positions, velocities, energies, kept, dt: float) -> dict:
+    """A damped run (one body) against its closed-form solution: what the report prints for it.
+
+    err_max, err_final: the largest and the last distance |q - q_exact| over the kept states.
+    bounded: finite, and the second half of the run swings no wider than the first (largest |q|,
+    give or take BOUNDED_SLACK for where the samples fall on a steady oscillation).
+    energy_lost against damper_work: E0 - E(t) against the integral of b |v|^2 up to the same t,
+    by composite Simpson over the kept states (order 4, so it does not hide RK4's own order 4);
+    work_mismatch = (energy_lost - damper_work) / E0 shrinks like dt^order when dt halves.
+    """
+    if not np.isfinite(energies).all():  # the energy squares q and v: finite energy, finite everything
+        return {"err_max": None, "err_final": None, "bounded": False, "energy_lost": None,
+                "damper_work": None, "work_mismatch": None}
+    gap = positions - system["exact"](system["q0"], system["v0"], kept * dt)
+    distance = np.sqrt(dot3(gap, gap))
+    swing = np.sqrt(dot3(positions, positions))
+    half = len(swing) // 2
+    bounded = swing[half:].max() <= swing[:half + 1].max() * (1.0 + BOUNDED_SLACK)
+    spacing = kept[1:] - kept[:-1]
+    uniform = len(kept) - 1 if (spacing == spacing[0]).all() else len(kept) - 2  # thinned: drop the short tail
+    work = simpson(system["dissipation"](positions[: uniform + 1], velocities[: uniform + 1]), spacing[0] * dt)
+    lost = float(energies[0] - energies[kept[uniform]])
+    return {"err_max": float(distance.max()), "err_final": float(distance[-1]), "bounded": bool(bounded),
+            "energy_lost": lost, "damper_work": work, "work_mismatch": (lost - work) / float(energies[0])}
+
+
+def simpson(values, h: float) -> float:
+    """Composite Simpson's rule over equally spaced samples; an odd count of intervals ends with the 3/8 rule."""
+    f = [float(value) for value in values]  # math.fsum: exactly rounded, the same on every CPU
+    n = len(f) - 1
+    if n < 3:  # too few for Simpson: the trapezoid
+        return h * (0.5 * f[0] + math.fsum(f[1:n]) + 0.5 * f[n]) if n else 0.0
+    head = n if n % 2 == 0 else n - 3  # even part by Simpson 1-4-2-4-...-1, the rest by 3/8
+    total = h / 3.0 * (f[0] + 4.0 * math.fsum(f[1:head:2]) + 2.0 * math.fsum(f[2:head:2]) + f[head])
+    if head < n:
+        total += 3.0 * h / 8.0 * (f[n - 3] + 3.0 * f[n - 2] + 3.0 * f[n - 1] + f[n])
+    return total
+
+
 # --- record ---
 # All of Rerun lives here, imported only when a recording is asked for, so the physics and the tests run
 # without it. Each system opens on its own lesson: RECORDED_VIEWS lists, per system, the views it needs,
 # and each log_<view>() logs its data along the `step` timeline and returns that view's layout. A new
 # system or view plugs in with one function and one line in the table.
 
-LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk4": "RK4"}
+LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk4": "RK4",
+          "implicit": "implicit (damping)"}
 PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
 FLOAT32_MAX = float(np.finfo(np.float32).max)  # Rerun stores float32: inf, NaN and beyond cannot be drawn
 
 
-def record(path: Path, system: dict, runs: dict, kept: np.ndarray, dt: float) -> str | None:
+def record(path: Path, system: dict, runs: dict, kept: np.ndarray, dt: float,
+           ensemble: dict | None = None) -> str | None:
     """Write runs {integrator: (positions, velocities, energies)} to `path`. Returns a note if thinned.
 
     `kept` are the step numbers of the kept states; energies are logged at those steps too.
+    `ensemble`, from an --ensemble run, adds a row below: members' paths and their error spread.
     """
     import rerun as rr
     import rerun.blueprint as rrb
@@ -331,7 +544,8 @@ def record(path: Path, system: dict, runs: dict, kept: np.ndarray, dt: float) ->
     try:
         recording.save(partial)
         views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in RECORDED_VIEWS[system["name"]]]
-        recording.send_blueprint(layout(rrb, views, kept))
+        below = [log_view(rr, rrb, recording, ensemble, kept) for log_view in ENSEMBLE_VIEWS] if ensemble else []
+        recording.send_blueprint(layout(rrb, views, below, kept))
         recording.flush()
         recording.disconnect()
         partial.replace(path)
@@ -344,14 +558,17 @@ def record(path: Path, system: dict, runs: dict, kept: np.ndarray, dt: float) ->
     return f"recording keeps 1 state in {every} of {steps + 1:,} per integrator, to stay viewable (metrics use all)"
 
 
-def layout(rrb, views, kept):
-    """The first view large on the left, the others stacked on the right; the side panels folded away.
+def layout(rrb, views, below, kept):
+    """The first view large on the left, the others stacked on the right, `below` in a row underneath;
+    the side panels folded away.
 
     The file opens with the time cursor on the last step (play state "following"): every body where its
     run ended, every plot whole. Pause, then play, and the viewer starts again from step 0.
     """
     first, *others = views
     story = rrb.Horizontal(first, rrb.Vertical(*others), column_shares=[3, 2]) if others else first
+    if below:
+        story = rrb.Vertical(story, rrb.Horizontal(*below))
     return rrb.Blueprint(
         story,
         rrb.BlueprintPanel(state="hidden"),
@@ -420,7 +637,7 @@ def camera_above(rrb, paths, tilt):
     """
     low, high = extent(paths)
     centre = (low + high) / 2.0
-    distance = 1.1 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
+    distance = 1.2 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)  # a margin for the axis names
     up = [0.0, 0.0, 1.0] if tilt else [0.0, 1.0, 0.0]
     return rrb.EyeControls3D(kind="Orbital", look_target=centre.tolist(), eye_up=up,
                              position=(centre + [0.0, -tilt * distance, distance]).tolist())
@@ -523,16 +740,19 @@ def log10_of(x):
 
 def log_position_error(rr, rrb, recording, system, runs, kept, dt):
     """log10 |q - q_exact| in metres: RK4 sits orders of magnitude below semi-implicit Euler."""
-    exact = system["exact"](system["q0"], system["v0"], kept * dt)
+    q0, v0 = system["q0"], system["v0"]
+    if np.ndim(q0) == 2:  # an ensemble: the runs recorded here are its first member's
+        q0, v0 = q0[0], v0[0]
+    exact = system["exact"](q0, v0, kept * dt)
     curves = {}
     for name, (positions, _, _) in runs.items():
         miss = positions - exact
         with np.errstate(all="ignore"):
             curves[name] = log10_of(np.sqrt(dot3(miss, miss)))
     logged = log_curves(rr, recording, "position_error", curves, kept)
-    # log10 = 0 is an error as big as the orbit itself. (Legends sort by entity name: "zero" comes last.)
-    log_level(rr, recording, "position_error/zero", "1 m, the orbit's radius", 0.0, kept)
-    return plot(rr, rrb, "position_error", "position error against the exact orbit: log10 |q - q_exact| (m)", kept,
+    # log10 = 0: off by 1 m, the size of the orbit (or of the spring's swing) itself. "zero" sorts last.
+    log_level(rr, recording, "position_error/zero", "1 m, the size of the motion", 0.0, kept)
+    return plot(rr, rrb, "position_error", "position error against the exact motion: log10 |q - q_exact| (m)", kept,
                 padded(np.append(logged, 0.0)), "RightBottom")
 
 
@@ -573,22 +793,61 @@ def log_height(rr, rrb, recording, system, runs, kept, dt):
     return plot(rr, rrb, "height", f"height z (m){apart}", kept, padded(logged), "LeftBottom")
 
 
+def log_member_paths(rr, rrb, recording, ensemble, kept):
+    """An ensemble's 3D view: the first members' paths, one strip each, in the integrator's colour."""
+    for name, summary in ensemble.items():
+        strips = [member[drawable(member)] for member in summary["paths"].swapaxes(0, 1)]
+        lines = rr.LineStrips3D(strips, colors=[COLORS[name]], radii=rr.components.Radius.ui_points(0.75))
+        recording.log(f"ensemble_paths/{name}", lines, static=True)
+    return rrb.Spatial3DView(origin="ensemble_paths", name=f"the first {SHOWN_MEMBERS} members' paths")
+
+
+def log_error_spread(rr, rrb, recording, ensemble, kept):
+    """Three curves per integrator, min, median and max of log10 |E - E0| / |E0| over all members.
+
+    Their gap is how much the seed matters: wide for the orbit, round-off for the linear spring.
+    """
+    logged = []
+    for name, summary in ensemble.items():
+        for column, (which, width) in enumerate((("min", 0.5), ("median", 2.0), ("max", 0.5))):
+            curve = log10_of(summary["error_spread"][:, column])
+            style = rr.SeriesLines(colors=[COLORS[name]], names=[f"{LABELS[name]} {which}"], widths=[width])
+            recording.log(f"ensemble_error/{name}/{which}", style, static=True)
+            shown = np.isfinite(curve)
+            recording.send_columns(f"ensemble_error/{name}/{which}", indexes=on_steps(rr, kept[shown]),
+                                   columns=rr.Scalars.columns(scalars=curve[shown]))
+            logged.append(curve[shown])
+    return plot(rr, rrb, "ensemble_error", "log10 |E - E0| / |E0|: min, median, max over members", kept,
+                padded(np.concatenate(logged)), "RightBottom")
+
+
 RECORDED_VIEWS = {  # per system, the views its lesson needs; the first one opens large on the left
     "orbit": (log_orbit, log_position_error, log_energy_error),
     "spring": (log_phase_plane, log_energy_error),
     "freefall": (log_energy_change, log_height),
+    "damped_spring": (log_phase_plane, log_position_error),  # energy drains by design: the exact motion referees
 }
+ENSEMBLE_VIEWS = (log_member_paths, log_error_spread)  # an --ensemble run adds these in a row below
 
 
 # --- report ---
 
 
-def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: dict) -> dict:
-    """The metrics.json payload: no wall-clock, nothing machine-dependent."""
-    # 12 decimals, not fewer: RK4's drift is ~1e-11 and rounding it to zero would erase it.
-    rounded = {name: {key: round(value, 12) if isinstance(value, float) else value for key, value in d.items()}
-               for name, d in drifts.items()}
-    return {"system": system_name, "dt": dt, "steps": steps, "seed": seed, "drift": rounded}
+def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: dict,
+                  damping: float | None = None, solution: dict | None = None) -> dict:
+    """The metrics.json payload: no wall-clock, nothing machine-dependent.
+
+    A damped system adds its damping and "solution": each integrator against the closed form.
+    """
+
+    def rounded(block):  # 12 decimals, not fewer: RK4's drift is ~1e-11 and rounding it to zero would erase it
+        return {name: {key: round(value, 12) if isinstance(value, float) else value for key, value in d.items()}
+                for name, d in block.items()}
+
+    metrics = {"system": system_name, "dt": dt, "steps": steps, "seed": seed, "drift": rounded(drifts)}
+    if solution is not None:
+        metrics.update(damping=damping, solution=rounded(solution))
+    return metrics
 
 
 def metrics_text(metrics: dict) -> str:
@@ -626,6 +885,64 @@ def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
         print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: {verdict}")
 
 
+def ensemble_block(system_name: str, seeds: range, ensemble: dict) -> dict:
+    """The `ensemble` block of metrics.json (rounded there like drift): each drift's spread, the ordering count."""
+    block = {"seeds": [seeds[0], seeds[-1]], "members": len(seeds), "drift": {
+        name: {"rel_final": spread(s["rel_final"]), "rel_max": spread(s["rel_max"]),
+               "diverged": int(np.count_nonzero(s["diverged"]))} for name, s in ensemble.items()}}
+    if set(ensemble) == set(INTEGRATORS) and system_name in ("orbit", "spring"):
+        holds = ordering_holds(ensemble)
+        diverged = np.any([s["diverged"] for s in ensemble.values()], axis=0)  # such a member cannot be judged
+        block["ordering_holds"] = int(np.count_nonzero(holds))
+        block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(~holds & ~diverged).tolist()]
+        block["ordering_not_judged"] = int(np.count_nonzero(diverged))
+    return block
+
+
+def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
+    """The ensemble's table: per integrator, min/median/max over the members of both drifts."""
+    print(f"\nensemble of seeds {seeds[0]}..{seeds[-1]}: {len(seeds):,} members stepped together")
+    if system_name == "spring":
+        print("(the spring is linear: a seed only scales the amplitude, so every member's relative drift\n"
+              " is the same up to round-off; the spread below is not a finding)")
+    print(f"{'':<14}{'rel_final':^36}  {'rel_max':^36}".rstrip())
+    print(f"{'integrator':<14}" + f"{'min':>12}{'median':>12}{'max':>12}  " * 2 + f"{'diverged':>8}")
+    for name, d in block["drift"].items():
+        cells = [("".join(f"{x[key]:>12.3e}" for key in ("min", "median", "max")) if x else f"{'-':>36}")
+                 for x in (d["rel_final"], d["rel_max"])]  # '-': every member diverged
+        print(f"{name:<14}{cells[0]}  {cells[1]}  {d['diverged']:>8,}")
+    if "ordering_holds" in block:
+        print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: holds for {block['ordering_holds']:,}"
+              f" of {len(seeds):,} seeds")
+        if block["ordering_not_judged"]:
+            print(f"  {block['ordering_not_judged']:,} diverged under some integrator and cannot be judged"
+                  " (try a smaller --dt)")
+        fails = block["ordering_fails_for_seeds"]
+        if fails:
+            more = f" and {len(fails) - 10:,} more" if len(fails) > 10 else ""
+            print(f"  it fails for seed {', '.join(map(str, fails[:10]))}{more}: rerun one with --seed to look")
+
+
+def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solution: dict) -> None:
+    """The damped spring's table: distance from the closed form, boundedness, the energy audit."""
+    k, m, b = system["k"], system["m"], system["b"]
+    ratio = b / (2.0 * math.sqrt(k * m))
+    regime = "under-damped" if ratio < 1.0 else "critically damped" if ratio == 1.0 else "over-damped"
+    print(f"integrated {system['name']} (k {k:g}, m {m:g}, b {b:g}: {regime}) for {steps} steps of {dt} s"
+          f" -> {steps * dt:.2f} s of sim time")
+    print(f"per step: damping dt b/m = {dt * b / m:.4g}, stiffness dt sqrt(k/m) = {dt * math.sqrt(k / m):.4g}"
+          " (docs/damping.md maps where each integrator stays bounded)")
+    print(f"{'integrator':<14}{'max |q-exact|':>14}{'final':>12}{'bounded':>9}{'E lost':>10}"
+          f"{'damper work':>13}{'mismatch/E0':>13}")
+    for name, d in solution.items():
+        if drifts[name]["diverged"]:
+            print(f"{name:<14}  diverged: energy non-finite from step {drifts[name]['diverged_at_step']:,}")
+        else:
+            print(f"{name:<14}{d['err_max']:>14.4e}{d['err_final']:>12.4e}{'yes' if d['bounded'] else 'NO':>9}"
+                  f"{cell(d['energy_lost'], 10)}{cell(d['damper_work'], 13)}{d['work_mismatch']:>+13.4e}")
+    print("truth: the closed-form solution; damper work: the integral of b |v|^2, by composite Simpson")
+
+
 # --- the run: flags and main ---
 
 
@@ -633,16 +950,22 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser = OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seed", type=int_in(0, None, "--seed"), default=0,
                         help="seeds the one jittered initial condition per system (default 0)")
-    parser.add_argument("--system", choices=SYSTEMS, default="orbit",
-                        help="which conservative system to integrate (default orbit)")
-    parser.add_argument("--integrator", choices=["all", *INTEGRATORS], default="all",
-                        help="'all' runs the three-way comparison, which is the point (default all)")
+    parser.add_argument("--system", choices=SYSTEMS + DAMPED_SYSTEMS, default="orbit",
+                        help="which system to integrate; damped_spring is the one that is not conservative"
+                             " (default orbit)")
+    parser.add_argument("--integrator", choices=["all", *INTEGRATORS, "implicit"], default="all",
+                        help="'all' runs the three-way comparison, which is the point; on damped_spring it"
+                             " adds implicit, the damping taken at the new velocity (default all)")
+    parser.add_argument("--damping", type=positive_finite("--damping"), default=None,
+                        help=f"damped_spring's b in N s/m (default {DAMPING}); 300 at dt 0.01 is the stiff case")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
                         help="timestep in sim seconds; raise it and every drift grows (default 0.01)")
     parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=2000,
                         help=f"steps per integrator, 1 to {MAX_STEPS:,} (default 2000)")
     parser.add_argument("--smoke", action="store_true",
                         help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
+    parser.add_argument("--ensemble", type=int_in(1, None, "--ensemble"), default=None, metavar="N",
+                        help="also run seeds --seed .. --seed+N-1 together and report the spread (default: off)")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
     parser.add_argument("--out", type=Path, default=Path("outputs/ch3.3-engine"),
@@ -652,9 +975,22 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--no-rerun", dest="rerun", action="store_false",
                         help="skip the recording; rerun is then never imported")
     args = parser.parse_args(argv)
+    if args.system not in DAMPED_SYSTEMS and args.damping is not None:
+        parser.error(f"argument --damping: only --system {' or '.join(DAMPED_SYSTEMS)} has a damper")
+    if args.system in DAMPED_SYSTEMS and args.ensemble:
+        parser.error("argument --ensemble: ensembles compare energy drift on the conservative systems"
+                     f" ({', '.join(SYSTEMS)})")
+    if args.system not in DAMPED_SYSTEMS and args.integrator == "implicit":
+        parser.error(f"argument --integrator: implicit needs a velocity-dependent force, so --system"
+                     f" {' or '.join(DAMPED_SYSTEMS)}")
     problem = output_folder_problem(args.out)
     if problem:
         parser.error(f"argument --out: {problem}")
+    steps = SMOKE_STEPS if args.smoke else args.steps
+    if args.ensemble and ensemble_bytes(steps, args.ensemble) > ENSEMBLE_MEMORY:
+        parser.error(f"argument --ensemble: {args.ensemble:,} members x {steps:,} steps needs about"
+                     f" {ensemble_bytes(steps, args.ensemble) / 1e9:.1f} GB, over the {ENSEMBLE_MEMORY / 1e9:g} GB"
+                     " this run may use: fewer members or fewer --steps")
     if args.rerun and not module_installed("rerun"):
         parser.error("the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun")
     return args
@@ -672,25 +1008,53 @@ def main(argv=None) -> int:
     started = time.perf_counter()
     banner("ch3.3-engine", device=args.device)
     steps = SMOKE_STEPS if args.smoke else args.steps
-    names = list(INTEGRATORS) if args.integrator == "all" else [args.integrator]
-    system = build_system(args.system, np.random.default_rng(args.seed))  # PCG64: the only randomness
+    damping = DAMPING if args.damping is None else args.damping
+    # PCG64 seeded per member is the only randomness; member 0 of an ensemble is the single run
+    seeds = range(args.seed, args.seed + (args.ensemble or 1))
+    if args.ensemble:
+        system = build_ensemble(args.system, seeds)
+    else:
+        system = build_system(args.system, np.random.default_rng(args.seed), damping)
+    integrators = integrators_for(system)
+    names = list(integrators) if args.integrator == "all" else [args.integrator]
     every = math.ceil((steps + 1) / MAX_POINTS_PER_SERIES)  # states kept for the recording; energy: every step
-    show_progress = not args.smoke and steps * len(names) >= PROGRESS_FROM
+    if args.ensemble:
+        every = max(every, ensemble_every(steps, args.ensemble))
+    # a member's step in a batch costs about a hundredth of a single run's, hence the 100
+    show_progress = not args.smoke and steps * len(names) * len(seeds) >= PROGRESS_FROM * (100 if args.ensemble else 1)
     metrics_path, recording_path = args.out / METRICS_FILE, args.out / RECORDING_FILE
     try:
-        runs, drifts = {}, {}
+        runs, drifts, ensemble, solution = {}, {}, {}, {}
         for name in names:
             progress = progress_printer(name, steps) if show_progress else None
-            runs[name] = positions, _, energies = simulate(INTEGRATORS[name], system, args.dt, steps, every, progress)
+            positions, velocities, energies = simulate(integrators[name], system, args.dt, steps, every, progress)
+            if args.ensemble:
+                ensemble[name] = summarize_ensemble(energies, positions, kept_steps(steps, every), args.rerun)
+                positions, velocities, energies = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
+            runs[name] = positions, velocities, energies
             drifts[name] = energy_drift(energies)
             drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
+            if "dissipation" in system:  # a damped system: the closed-form solution is its referee
+                solution[name] = against_exact(system, positions, velocities, energies, kept_steps(steps, every),
+                                               args.dt)
         args.out.mkdir(parents=True, exist_ok=True)
-        note = record(recording_path, system, runs, kept_steps(steps, every), args.dt) if args.rerun else None
-        write_atomic(metrics_path, metrics_text(build_metrics(args.system, args.dt, steps, args.seed, drifts)))
+        note = record(recording_path, system, runs, kept_steps(steps, every), args.dt, ensemble) if args.rerun else None
+        metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts,
+                                damping if solution else None, solution or None)
+        if args.ensemble:
+            block = ensemble_block(args.system, seeds, ensemble)
+            # every float to 12 decimals, as in drift
+            metrics["ensemble"] = json.loads(json.dumps(block), parse_float=lambda text: round(float(text), 12))
+        write_atomic(metrics_path, metrics_text(metrics))
     except KeyboardInterrupt:
         print(f"\ninterrupted: {METRICS_FILE} and {RECORDING_FILE} were left as they were", file=sys.stderr)
         return 130
-    print_report(args.system, args.dt, steps, drifts)
+    if solution:
+        print_damped_report(system, args.dt, steps, drifts, solution)
+    else:
+        print_report(args.system, args.dt, steps, drifts)
+    if args.ensemble:
+        print_ensemble_report(args.system, seeds, block)
     print(f"metrics: {metrics_path}")
     if args.rerun:
         print(f"recording: {recording_path} (open it with: rerun {recording_path})")

@@ -230,6 +230,7 @@ def test_side_panels_are_folded_and_the_file_opens_on_the_last_step(recorded, sy
     assert time_panel["TimePanelBlueprint:fps"] * engine.PLAYBACK_SECONDS == pytest.approx(STEPS)
 
 
+@pytest.mark.slow
 def test_long_runs_are_thinned_in_the_recording_but_not_in_the_metrics(tmp_path, capsys):
     steps = 250_000
     assert engine.main(["--integrator", "euler", "--steps", str(steps), "--out", str(tmp_path)]) == 0
@@ -246,4 +247,20 @@ def test_long_runs_are_thinned_in_the_recording_but_not_in_the_metrics(tmp_path,
 
 def test_every_system_has_its_views_in_the_table():
     """A new system records only once it has its line in RECORDED_VIEWS: this says so before a student does."""
-    assert set(engine.RECORDED_VIEWS) == set(engine.SYSTEMS)
+    assert set(engine.RECORDED_VIEWS) == set(engine.SYSTEMS + engine.DAMPED_SYSTEMS)
+
+
+def test_the_damped_spring_opens_on_its_phase_plane_beside_its_error_against_the_exact_motion(tmp_path):
+    assert engine.main(["--system", "damped_spring", "--out", str(tmp_path)]) == 0
+    _, entities, settings = read_recording(tmp_path / engine.RECORDING_FILE)
+    assert set(views_of(settings)) == {("3D", "phase"), ("TimeSeries", "position_error")}
+    system = engine.build_system("damped_spring", np.random.default_rng(0))
+    exact = system["exact"](system["q0"], system["v0"], np.arange(STEPS + 1) * DT)
+    for name in engine.integrators_for(system):  # the implicit step too
+        positions, velocities, _ = engine.simulate(engine.integrators_for(system)[name], system, DT, STEPS)
+        plane = np.concatenate(column(entities[f"/phase/{name}/body"], "Points3D:positions"))
+        np.testing.assert_array_equal(plane[:, :2], np.stack([positions[:, 0], velocities[:, 0]], axis=1)
+                                      .astype(np.float32))
+        miss = np.sqrt(np.sum((positions - exact) ** 2, axis=1))
+        logged = np.ravel(column(entities[f"/position_error/{name}"], "Scalars:scalars"))
+        np.testing.assert_allclose(logged, np.log10(miss[miss > 0]), atol=1e-9)
