@@ -657,6 +657,12 @@ def log_orbit(rr, rrb, recording, system, runs, kept, dt):
                              line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
 
 
+def first_start(system):
+    """(q0, v0) of the body the runs are: the system's own, or an ensemble's first member's."""
+    q0, v0 = system["q0"], system["v0"]
+    return (q0[0], v0[0]) if np.ndim(q0) == 2 else (q0, v0)
+
+
 def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
     """x across, v_x up: a closed curve is an oscillation that keeps its energy; Euler's spirals out."""
     planes = {name: np.stack([positions[:, 0], velocities[:, 0], np.zeros(len(kept))], axis=1)
@@ -664,9 +670,20 @@ def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
     lifts = label_lifts(planes)
     for name, plane in planes.items():
         log_bodies(rr, recording, f"phase/{name}", name, plane, kept, label_lift=lifts[name])
+    # The exact motion, wide and grey, a hair below the plane so the integrators' lines lie on top of it.
+    # Its velocity is the exact position's central difference over a microsecond.
+    q0, v0 = first_start(system)
+    t, h = kept * dt, 1e-6
+    x = system["exact"](q0, v0, t)[:, 0]
+    v = (system["exact"](q0, v0, t + h)[:, 0] - system["exact"](q0, v0, t - h)[:, 0]) / (2.0 * h)
     low, high = extent(planes.values())
+    below = -0.002 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
+    exact = np.stack([x, v, np.full(len(kept), below)], axis=1)
+    recording.log("phase/exact", rr.LineStrips3D([exact[drawable(exact)]], colors=[[120, 120, 120]],
+                                                 radii=rr.components.Radius.ui_points(3.0)), static=True)
     log_axes(rr, recording, "phase/axes", np.maximum(-low, high)[:2] * 1.1, ("x (m)", "v_x (m/s)"))
-    return rrb.Spatial3DView(origin="phase", name=f"{system['name']}: phase plane, x against v_x",
+    name = f"{system['name']}: phase plane, x against v_x (grey: the exact motion)"
+    return rrb.Spatial3DView(origin="phase", name=name,
                              eye_controls=camera_above(rrb, planes.values(), tilt=0.0),
                              line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
 
@@ -740,10 +757,7 @@ def log10_of(x):
 
 def log_position_error(rr, rrb, recording, system, runs, kept, dt):
     """log10 |q - q_exact| in metres: RK4 sits orders of magnitude below semi-implicit Euler."""
-    q0, v0 = system["q0"], system["v0"]
-    if np.ndim(q0) == 2:  # an ensemble: the runs recorded here are its first member's
-        q0, v0 = q0[0], v0[0]
-    exact = system["exact"](q0, v0, kept * dt)
+    exact = system["exact"](*first_start(system), kept * dt)
     curves = {}
     for name, (positions, _, _) in runs.items():
         miss = positions - exact

@@ -264,3 +264,18 @@ def test_the_damped_spring_opens_on_its_phase_plane_beside_its_error_against_the
         miss = np.sqrt(np.sum((positions - exact) ** 2, axis=1))
         logged = np.ravel(column(entities[f"/position_error/{name}"], "Scalars:scalars"))
         np.testing.assert_allclose(logged, np.log10(miss[miss > 0]), atol=1e-9)
+
+
+@pytest.mark.parametrize("system_name", ["spring", "damped_spring"])
+def test_the_phase_plane_draws_the_exact_motion_under_the_integrators(tmp_path, system_name):
+    assert engine.main(["--system", system_name, "--out", str(tmp_path)]) == 0
+    _, entities, _ = read_recording(tmp_path / engine.RECORDING_FILE)
+    (exact,) = column(entities["/phase/exact"], "LineStrips3D:strips")[0]
+    exact = np.array(exact)
+    system = engine.build_system(system_name, np.random.default_rng(0))
+    times = np.arange(STEPS + 1) * DT
+    x = system["exact"](system["q0"], system["v0"], times)[:, 0]
+    np.testing.assert_allclose(exact[:, 0], x, atol=1e-6)
+    if system_name == "spring":  # x = x0 cos(2t): v = -2 x0 sin(2t)
+        np.testing.assert_allclose(exact[:, 1], -2.0 * system["q0"][0] * np.sin(2.0 * times), atol=1e-5)
+    assert (exact[:, 2] < 0).all(), "a hair below the plane, so the integrators' lines lie on top"
