@@ -525,7 +525,8 @@ def simpson(values, h: float) -> float:
 LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk4": "RK4",
           "implicit": "implicit (damping)"}
 PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
-FLOAT32_MAX = float(np.finfo(np.float32).max)  # Rerun stores float32: inf, NaN and beyond cannot be drawn
+DRAW_LIMIT = 1e30  # Rerun stores float32 (up to 3.4e38): we draw coordinates below this, leaving headroom
+# for the camera's distance and the labels' lifts; a diverged run's inf and NaN are never drawn
 
 
 def record(path: Path, system: dict, runs: dict, kept: np.ndarray, dt: float,
@@ -580,7 +581,7 @@ def layout(rrb, views, below, kept):
 
 def drawable(points):
     """Rows whose every coordinate Rerun can draw (a diverged run's inf and NaN are left out)."""
-    return (np.abs(points) < FLOAT32_MAX).all(axis=-1)
+    return (np.abs(points) < DRAW_LIMIT).all(axis=-1)
 
 
 def on_steps(rr, steps):
