@@ -23,7 +23,7 @@ import numpy as np
 
 import engine
 from curriculum.common import output_folder_problem
-from exercises.predict import OneOf, ask, explain, verdict
+from exercises.support.predict import OneOf, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
 STEPS, DT, COARSE_DT = 2000, 0.01, 0.1
