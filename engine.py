@@ -2,7 +2,8 @@
 
 A state (q, v, m), a force law and three integrators (explicit Euler, semi-implicit
 Euler, RK4), run on three conservative systems. Energy is the referee: a perfect
-integrator would hold it constant, so how far each one drifts is what we measure.
+integrator would hold it constant, so how far each one drifts, and in which shape,
+is what we measure.
 
 Run it from the repo root:
 
@@ -14,123 +15,62 @@ Open the recording with `rerun outputs/ch3.3-engine/engine.rrd`.
 """
 
 import argparse
-import importlib.util
 import json
 import math
-import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from curriculum.common import banner
+from curriculum.common import (
+    OneLineParser,
+    banner,
+    int_in,
+    output_folder_problem,
+    positive_finite,
+    progress_printer,
+    wall_clock,
+    write_atomic,
+)
 
-# --- settings and flags ---
+# --- settings ---
 
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
-MAX_STEPS = 10_000_000  # ~170 bytes of history per step for 3 integrators: about 1.7 GB at the cap
+MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
+MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
 PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
-MAX_POINTS_PER_SERIES = 100_000  # past this the recording keeps every k-th step
+METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '_' and '-'
 
 
-class _OneLineParser(argparse.ArgumentParser):
-    """Bad input gets one line naming the problem, not a usage block."""
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
-
-
-def _timestep(text: str) -> float:
-    try:
-        dt = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(dt) and dt > 0.0):
-        raise argparse.ArgumentTypeError(f"the timestep must be a positive, finite number of seconds, got {text}")
-    return dt
-
-
-def _int_in(low: int, high: int | None, what: str):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-        if value < low or (high is not None and value > high):
-            bound = f"from {low:,} to {high:,}" if high is not None else f"{low} or more"
-            raise argparse.ArgumentTypeError(f"{what} must be {bound}, got {value:,}")
-        return value
-
-    return parse
-
-
-def _unwritable_reason(out: Path) -> str | None:
-    """Why --out cannot hold our files, or None if it can. Creates nothing."""
-    if out.exists():
-        return None if out.is_dir() and os.access(out, os.W_OK | os.X_OK) else f"{out} is not a writable directory"
-    parent = out.parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        return f"{out} cannot be created: {parent} is not a writable directory"
-    return None
-
-
-def parse_args(argv=None) -> argparse.Namespace:
-    parser = _OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seed", type=_int_in(0, None, "--seed"), default=0,
-                        help="seeds the one jittered initial condition per system (default 0)")
-    parser.add_argument("--system", choices=["orbit", "spring", "freefall"], default="orbit",
-                        help="which conservative system to integrate (default orbit)")
-    parser.add_argument("--integrator", choices=["all", "euler", "semi_implicit", "rk4"], default="all",
-                        help="'all' runs the three-way comparison, which is the point (default all)")
-    parser.add_argument("--dt", type=_timestep, default=0.01,
-                        help="timestep in sim seconds; raise it and every drift grows (default 0.01)")
-    parser.add_argument("--steps", type=_int_in(1, MAX_STEPS, "--steps"), default=2000,
-                        help=f"steps per integrator, 1 to {MAX_STEPS:,} (history is kept in memory; default 2000)")
-    parser.add_argument("--smoke", action="store_true",
-                        help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical metrics.json")
-    parser.add_argument("--device", choices=["cpu"], default="cpu",
-                        help="pure numpy runs on the CPU; the flag is there for the course's banner")
-    parser.add_argument("--out", type=Path, default=Path("outputs/ch3.3-engine"),
-                        help="folder for metrics.json and engine.rrd (default outputs/ch3.3-engine)")
-    parser.add_argument("--rerun", dest="rerun", action="store_true", default=True,
-                        help="write the .rrd recording (the default)")
-    parser.add_argument("--no-rerun", dest="rerun", action="store_false",
-                        help="skip the recording; rerun is then never imported")
-    args = parser.parse_args(argv)
-    reason = _unwritable_reason(args.out)
-    if reason:
-        parser.error(f"argument --out: {reason}")
-    if args.rerun and importlib.util.find_spec("rerun") is None:  # looks, does not import
-        parser.error("the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun")
-    return args
-
-
 # --- systems ---
-# A system is the physics: an initial state (q0, v0, m), a force law force(q, v)
-# and the true total energy(q, v), which a perfect integrator holds constant.
-# States are 3-vectors, so a planar orbit draws as a curve in 3D and chapter 3.4
-# can add a constraint force to this same force without changing anything else.
+# A system is the physics: where the body starts (q0, v0), its mass m, the force law
+# force(q, v), and the true total energy(q, v), which a perfect integrator holds constant.
 #
-# Determinism: `@`, np.dot and np.linalg.norm on small vectors go through BLAS,
-# whose kernel (and so the last bit) depends on the CPU. We square and add the
-# three components ourselves instead: plain IEEE arithmetic, the same on every CPU.
+# The contract every system keeps, and simulate() checks: q and v are one body's
+# position and velocity, shape (3,), or a batch of N independent bodies, shape (N, 3),
+# stepped together. force(q, v) returns q's shape; energy(q, v) returns one number per
+# body, shape q.shape[:-1]. Three components let a planar orbit draw as a curve in 3D,
+# and chapter 3.4 adds a constraint force to this same force without changing the rest.
+#
+# Determinism: `@`, np.dot and np.linalg.norm hand small vectors to BLAS, and `**` calls
+# libm's pow; both round differently on different CPUs. So the physics squares, adds and
+# cubes with plain arithmetic (dot3, r * r * r), which IEEE rounds the same everywhere.
+
+SYSTEMS = ("orbit", "spring", "freefall")
 
 
 def dot3(a, b):
-    """a . b over the last axis of length 3, in a fixed order. Works on (3,) and (N, 3)."""
+    """a . b over the last axis, summed in a fixed order: (3,) gives a number, (N, 3) gives (N,)."""
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
 def build_system(name: str, rng: np.random.Generator) -> dict:
-    """Return {q0, v0, m, force, energy} for one of the three conservative systems.
+    """Return {name, q0, v0, m, force, energy} for one of the three conservative systems.
 
     The seed jitters one initial condition per system (orbit speed, spring stretch,
     launch speed), so --seed matters while the ordering of the drifts does not change.
-    force(q, v) takes one state; energy(q, v) takes one state or (N, 3) histories.
     """
     if name == "orbit":
         # A unit mass around a fixed attractor at the origin, inverse-square pull, GM = mu = 1.
@@ -140,13 +80,8 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
         v0 = np.array([0.0, 1.0 + rng.uniform(-0.05, 0.05), 0.0])
 
         def force(q, v):
-            x, y, z = q.tolist()  # plain floats: for three numbers, faster than numpy's calls
-            r = math.sqrt(x * x + y * y + z * z)
-            r3 = r * r * r  # not r**3: pow() comes from libm, whose last bit varies by CPU
-            # Magnitude mu*m/r^2, pointing at the attractor. At r = 0 the pull is undefined:
-            # NaN, so that simulate() reports the step instead of raising mid-run.
-            pull = -mu * m / r3 if r3 > 0.0 else math.nan
-            return np.array((x * pull, y * pull, z * pull))
+            r = np.sqrt(dot3(q, q))[..., None]  # distance to the attractor, one per body
+            return -mu * m * q / (r * r * r)  # magnitude mu m / r^2, pointing at the attractor
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) - mu * m / np.sqrt(dot3(q, q))  # kinetic + gravitational
@@ -159,7 +94,7 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
         v0 = np.zeros(3)
 
         def force(q, v):
-            return q * -k  # Hooke: restoring, in proportion to the stretch
+            return -k * q  # Hooke: restoring, in proportion to the stretch
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring
@@ -170,24 +105,32 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
         g, m = 9.81, 1.0
         q0 = np.array([0.0, 0.0, 10.0])
         v0 = np.array([3.0 + rng.uniform(-0.5, 0.5), 0.0, 0.0])
-        weight = np.array([0.0, 0.0, -m * g])
+        gravity = np.array([0.0, 0.0, -g])
 
         def force(q, v):
-            return weight.copy()
+            return np.broadcast_to(m * gravity, q.shape)  # the same weight on every body
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + m * g * q[..., 2]  # kinetic + height
 
     else:
-        raise ValueError(f"unknown system {name!r}; choose orbit, spring or freefall")
-    return {"q0": q0, "v0": v0, "m": m, "force": force, "energy": energy}
+        raise ValueError(f"unknown system {name!r}; choose one of {', '.join(SYSTEMS)}")
+    return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy}
+
+
+def build_ensemble(name: str, seeds) -> dict:
+    """One system, N bodies stepped as a batch: q0 and v0 become (N, 3), one row per seed.
+
+    Row i starts exactly where build_system(name, default_rng(seeds[i])) does; the force
+    and energy laws are the same for every member, so they are shared.
+    """
+    members = [build_system(name, np.random.default_rng(seed)) for seed in seeds]
+    return {**members[0], "q0": np.stack([s["q0"] for s in members]), "v0": np.stack([s["v0"] for s in members])}
 
 
 # --- integrators ---
-# Each takes (q, v) and returns the state one timestep dt later. They differ only in
+# Each takes the state (q, v) and returns it one timestep dt later. They differ only in
 # where they look at the velocity and the force, and that is the whole lesson.
-# Products are written array * scalar (`v * dt`): the same number as `dt * v`, but numpy
-# answers it directly instead of after Python's float has declined, a third faster.
 
 
 def euler_step(q, v, m, force, dt):
@@ -198,7 +141,7 @@ def euler_step(q, v, m, force, dt):
     Fails on anything that oscillates: it adds energy every step, so orbits spiral out.
     """
     a = force(q, v) / m
-    return q + v * dt, v + a * dt  # position moves with the OLD velocity
+    return q + dt * v, v + dt * a  # the position moves with the OLD velocity
 
 
 def semi_implicit_step(q, v, m, force, dt):
@@ -209,8 +152,8 @@ def semi_implicit_step(q, v, m, force, dt):
     Energy wobbles in a band that does not grow; it fails where motion never returns (freefall).
     """
     a = force(q, v) / m
-    v_next = v + a * dt
-    q_next = q + v_next * dt  # the NEW velocity moves the position: one line, the whole trick
+    v_next = v + dt * a
+    q_next = q + dt * v_next  # the NEW velocity moves the position: one line, the whole trick
     return q_next, v_next
 
 
@@ -221,16 +164,16 @@ def rk4_step(q, v, m, force, dt):
     Not symplectic; order 4; 4 force evaluations per step.
     Tiny error per step, but it creeps one way and is never pulled back over long runs.
     """
-    # kNq is the slope of q at stage N, which is just the velocity there; kNv is the acceleration.
-    k1q, k1v = v, force(q, v) / m
-    k2q = v + k1v * (0.5 * dt)
-    k2v = force(q + k1q * (0.5 * dt), k2q) / m
-    k3q = v + k2v * (0.5 * dt)
-    k3v = force(q + k2q * (0.5 * dt), k3q) / m
-    k4q = v + k3v * dt
-    k4v = force(q + k3q * dt, k4q) / m
-    q_next = q + (k1q + (k2q + k3q) * 2.0 + k4q) * (dt / 6.0)  # weights 1-2-2-1, over 6
-    v_next = v + (k1v + (k2v + k3v) * 2.0 + k4v) * (dt / 6.0)
+
+    def deriv(q, v):  # the slope of the state: q changes at v, v at the acceleration
+        return v, force(q, v) / m
+
+    k1q, k1v = deriv(q, v)
+    k2q, k2v = deriv(q + 0.5 * dt * k1q, v + 0.5 * dt * k1v)
+    k3q, k3v = deriv(q + 0.5 * dt * k2q, v + 0.5 * dt * k2v)
+    k4q, k4v = deriv(q + dt * k3q, v + dt * k3v)
+    q_next = q + (dt / 6.0) * (k1q + 2.0 * k2q + 2.0 * k3q + k4q)
+    v_next = v + (dt / 6.0) * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
     return q_next, v_next
 
 
@@ -241,30 +184,61 @@ COLORS = {"euler": [217, 76, 64], "semi_implicit": [76, 175, 80], "rk4": [64, 11
 # --- simulate and measure ---
 
 
-def simulate(step_fn, system: dict, dt: float, steps: int, progress=None):
-    """Integrate `system` for `steps` steps. Returns (trajectory, energies).
+def simulate(step_fn, system: dict, dt: float, steps: int, every: int = 1, progress=None):
+    """Integrate `system` for `steps` steps of `dt`. Returns (positions, velocities, energies).
 
-    trajectory: (steps + 1, 3) positions; energies: (steps + 1,) total energy, row 0 the start.
-    The loop only steps and stores; energy is computed once afterwards, over the whole
-    history at once. A state that blows up is carried on as inf/NaN without warnings;
-    energy_drift() reports the step where that began. progress(done), if given, is called ~20 times.
+    positions, velocities: the states at kept_steps(steps, every), that is every `every`-th
+    step and always the last; with every=1 that is all of them, (steps + 1, 3), or
+    (steps + 1, N, 3) for a batch. energies: the total energy at every step, row 0 the start.
+    A state that blows up is carried on as inf/NaN without warnings, and energy_drift()
+    reports the step where that began. progress(done), if given, is called ~20 times.
     """
-    q = system["q0"].astype(float)
-    v = system["v0"].astype(float)
-    m, force = system["m"], system["force"]
-    positions = np.empty((steps + 1, 3))
-    velocities = np.empty((steps + 1, 3))
-    positions[0], velocities[0] = q, v
-    block = max(steps // 20, 1) if progress else steps  # report ~20 times, between blocks
+    q = np.array(system["q0"], dtype=float)
+    v = np.array(system["v0"], dtype=float)
+    m, force, energy = system["m"], system["force"], system["energy"]
+    check_contract(system, q, v)
+    positions = np.empty((len(kept_steps(steps, every)), *q.shape))
+    velocities = np.empty_like(positions)
+    energies = np.empty((steps + 1, *q.shape[:-1]))
+    positions[0], velocities[0], energies[0] = q, v, energy(q, v)
+    row, report_every = 1, max(steps // 20, 1)
     with np.errstate(all="ignore"):
-        for start in range(1, steps + 1, block):
-            for i in range(start, min(start + block, steps + 1)):
-                q, v = step_fn(q, v, m, force, dt)
-                positions[i], velocities[i] = q, v
-            if progress:
+        for i in range(1, steps + 1):
+            q, v = step_fn(q, v, m, force, dt)
+            energies[i] = energy(q, v)
+            if i % every == 0 or i == steps:
+                positions[row], velocities[row] = q, v
+                row += 1
+            if progress and (i % report_every == 0 or i == steps):
                 progress(i)
-        energies = system["energy"](positions, velocities)
-    return positions, energies
+    return positions, velocities, energies
+
+
+def kept_steps(steps: int, every: int = 1) -> np.ndarray:
+    """The step numbers simulate() keeps states for: 0, every, 2 every, ... and the last."""
+    kept = np.arange(0, steps + 1, every)
+    return kept if kept[-1] == steps else np.append(kept, steps)
+
+
+def check_contract(system: dict, q, v) -> None:
+    """Fail at once, with a sentence, if a system breaks the contract above."""
+    name = system.get("name", "this system")
+    if q.ndim not in (1, 2) or q.shape[-1] != 3 or v.shape != q.shape:
+        raise ValueError(f"{name}: q0 and v0 must both be (3,) for one body or (N, 3) for N bodies, "
+                         f"got {q.shape} and {v.shape}")
+    with np.errstate(all="ignore"):
+        force, energy = np.shape(system["force"](q, v)), np.shape(system["energy"](q, v))
+    if force != q.shape:
+        raise ValueError(f"{name}: force(q, v) must return one force per body, shape {q.shape}, got {force}")
+    if energy != q.shape[:-1]:
+        raise ValueError(f"{name}: energy(q, v) must return one number per body, shape {q.shape[:-1]}, got {energy}"
+                         " (sum the three components with dot3, not over the whole array)")
+
+
+def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0, every: int = 1):
+    """build_system + simulate, as the exercises and tests call it: (positions, velocities, energies)."""
+    system = build_system(system_name, np.random.default_rng(seed))
+    return simulate(INTEGRATORS[integrator], system, dt, steps, every)
 
 
 def energy_drift(energies: np.ndarray) -> dict:
@@ -296,17 +270,15 @@ def energy_drift(energies: np.ndarray) -> dict:
 # beside them one plot where the integrators' energy errors overlay (raw energy in a tab).
 
 
-def record(path: Path, system_name: str, runs: dict) -> str | None:
-    """Write runs {name: (trajectory, energies)} to `path`. Returns a note if decimated."""
+def record(path: Path, system_name: str, runs: dict, kept: np.ndarray) -> str | None:
+    """Write runs {name: (positions, velocities, energies)} to `path`. Returns a note if thinned.
+
+    `kept` are the step numbers of the kept states; energies are logged at those steps too.
+    """
     import rerun as rr
     import rerun.blueprint as rrb
 
-    steps = len(next(iter(runs.values()))[1]) - 1
-    stride = math.ceil((steps + 1) / MAX_POINTS_PER_SERIES)
-    kept = np.arange(0, steps + 1, stride)
-    if kept[-1] != steps:
-        kept = np.append(kept, steps)  # always keep the final state
-
+    steps = int(kept[-1])
     blueprint = rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial3DView(origin="world", name="paths"),
@@ -323,42 +295,49 @@ def record(path: Path, system_name: str, runs: dict) -> str | None:
         recording.save(partial, default_blueprint=blueprint)
         if system_name == "orbit":  # the fixed attractor the orbit's ellipse has at one focus
             recording.log("world/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03]), static=True)
-        for name, (trajectory, energies) in runs.items():
-            log_path(rr, recording, name, trajectory[kept])
-            log_energy(rr, recording, name, kept, energies[kept])
-            log_relative_error(rr, recording, name, kept, energies[kept], energies[0])
+        for name, (positions, _, energies) in runs.items():
+            log_path(recording, name, positions)
+            log_energy(recording, name, kept, energies[kept])
+            log_relative_error(recording, name, kept, energies[kept], energies[0])
         recording.flush()
         recording.disconnect()
-        os.replace(partial, path)
+        partial.replace(path)
     finally:
         partial.unlink(missing_ok=True)
-    if stride == 1:
+    if len(kept) == steps + 1:
         return None
-    return f"recording keeps 1 state in {stride} of {steps + 1:,} per integrator, to stay viewable (metrics use all)"
+    every = int(kept[1] - kept[0])
+    return f"recording keeps 1 state in {every} of {steps + 1:,} per integrator, to stay viewable (metrics use all)"
 
 
-def log_path(rr, recording, name, trajectory):
+def log_path(recording, name, positions):
     """The 3D view: the whole path as one line strip, in the integrator's colour."""
+    import rerun as rr
+
     # Rerun stores float32: a diverged path's inf/NaN, or anything past 3.4e38, cannot be drawn.
-    drawable = (np.abs(trajectory) < np.finfo(np.float32).max).all(axis=1)
-    line = rr.LineStrips3D([trajectory[drawable]], colors=[COLORS[name]], labels=[name])
+    drawable = (np.abs(positions) < np.finfo(np.float32).max).all(axis=1)
+    line = rr.LineStrips3D([positions[drawable]], colors=[COLORS[name]], labels=[name])
     recording.log(f"world/{name}", line, static=True)
 
 
-def log_energy(rr, recording, name, steps, energies):
+def log_energy(recording, name, steps, energies):
     """Total energy on the `step` timeline. Euler's 22% climb flattens the others here."""
+    import rerun as rr
+
     recording.log(f"energy/{name}", rr.SeriesLines(colors=[COLORS[name]], names=[name]), static=True)
     finite = np.isfinite(energies)
     recording.send_columns(f"energy/{name}", indexes=[rr.TimeColumn("step", sequence=steps[finite])],
                            columns=rr.Scalars.columns(scalars=energies[finite]))
 
 
-def log_relative_error(rr, recording, name, steps, energies, e0):
+def log_relative_error(recording, name, steps, energies, e0):
     """log10 |E - E0| / |E0|: Rerun has no log axis, so we log the exponent.
 
     Read it as "digits lost": Euler climbs towards 0 (100%), semi-implicit sits in a flat
     band, RK4 starts near round-off. Steps where the error is exactly zero have no log.
     """
+    import rerun as rr
+
     recording.log(f"rel_error/{name}", rr.SeriesLines(colors=[COLORS[name]], names=[name]), static=True)
     with np.errstate(all="ignore"):
         relative = np.abs(energies - e0) / (abs(e0) if e0 != 0.0 else 1.0)
@@ -370,36 +349,38 @@ def log_relative_error(rr, recording, name, steps, energies, e0):
 # --- report ---
 
 
-def build_metrics(args, num_steps: int, drifts: dict) -> dict:
+def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: dict) -> dict:
     """The metrics.json payload: no wall-clock, nothing machine-dependent."""
     # 12 decimals, not fewer: RK4's drift is ~1e-11 and rounding it to zero would erase it.
     rounded = {name: {key: round(value, 12) if isinstance(value, float) else value for key, value in d.items()}
                for name, d in drifts.items()}
-    return {"system": args.system, "dt": args.dt, "steps": num_steps, "seed": args.seed, "drift": rounded}
+    return {"system": system_name, "dt": dt, "steps": steps, "seed": seed, "drift": rounded}
 
 
-def write_json_atomic(path: Path, payload: dict) -> None:
-    """Write strict JSON (no NaN/Infinity) via a temp file and a rename: never half a file."""
-    text = json.dumps(payload, indent=2, sort_keys=True, allow_nan=False) + "\n"
-    partial = path.with_name(path.name + ".partial")
-    try:
-        partial.write_text(text)
-        os.replace(partial, path)
-    finally:
-        partial.unlink(missing_ok=True)
+def metrics_text(metrics: dict) -> str:
+    """Strict JSON (no NaN or Infinity), keys sorted, so the same run gives the same bytes."""
+    return json.dumps(metrics, indent=2, sort_keys=True, allow_nan=False) + "\n"
 
 
-def print_report(args, num_steps: int, drifts: dict) -> None:
-    sim_seconds = num_steps * args.dt
+def cell(value: float, width: int, signed: bool = False) -> str:
+    """A table cell: 4 decimals where they fit, scientific notation where they would not."""
+    sign = "+" if signed else ""
+    text = f"{value:{sign}.4f}"
+    return f"{text:>{width}}" if len(text) < width - 1 else f"{value:>{sign}{width}.4e}"
+
+
+def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
+    sim_seconds = steps * dt
     shown = f"{sim_seconds:.2f}" if sim_seconds < 1e9 else f"{sim_seconds:.3g}"
-    print(f"integrated {args.system} for {num_steps} steps of {args.dt} s -> {shown} s of sim time")
+    print(f"integrated {system_name} for {steps} steps of {dt} s -> {shown} s of sim time")
     print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
     for name, d in drifts.items():
         if d["diverged"]:
-            print(f"{name:<14}{d['e0']:>12.4f}  diverged: energy non-finite from step {d['diverged_at_step']:,}")
+            print(f"{name:<14}{cell(d['e0'], 12)}  diverged: energy non-finite from step {d['diverged_at_step']:,}")
         else:
-            print(f"{name:<14}{d['e0']:>12.4f}{d['e_final']:>14.4f}{d['rel_final']:>+14.4e}{d['rel_max']:>14.4e}")
-    if args.integrator == "all" and args.system in ("orbit", "spring"):
+            print(f"{name:<14}{cell(d['e0'], 12)}{cell(d['e_final'], 14)}"
+                  f"{d['rel_final']:>+14.4e}{d['rel_max']:>14.4e}")
+    if set(drifts) == set(INTEGRATORS) and system_name in ("orbit", "spring"):
         # The headline, stated as an ordering so it holds for any seed.
         diverged = [name for name, d in drifts.items() if d["diverged"]]
         if diverged:
@@ -411,43 +392,77 @@ def print_report(args, num_steps: int, drifts: dict) -> None:
         print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: {verdict}")
 
 
-def _progress_printer(name: str, steps: int):
-    def show(done: int) -> None:
-        end = "\n" if done == steps else ""
-        print(f"\r  {name:<14}{done / steps:>5.0%} of {steps:,} steps", end=end, file=sys.stderr, flush=True)
+# --- the run: flags and main ---
 
-    return show
+
+def parse_args(argv=None) -> argparse.Namespace:
+    parser = OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seed", type=int_in(0, None, "--seed"), default=0,
+                        help="seeds the one jittered initial condition per system (default 0)")
+    parser.add_argument("--system", choices=SYSTEMS, default="orbit",
+                        help="which conservative system to integrate (default orbit)")
+    parser.add_argument("--integrator", choices=["all", *INTEGRATORS], default="all",
+                        help="'all' runs the three-way comparison, which is the point (default all)")
+    parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
+                        help="timestep in sim seconds; raise it and every drift grows (default 0.01)")
+    parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=2000,
+                        help=f"steps per integrator, 1 to {MAX_STEPS:,} (default 2000)")
+    parser.add_argument("--smoke", action="store_true",
+                        help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
+    parser.add_argument("--device", choices=["cpu"], default="cpu",
+                        help="pure numpy runs on the CPU; the flag is there for the course's banner")
+    parser.add_argument("--out", type=Path, default=Path("outputs/ch3.3-engine"),
+                        help=f"folder for {METRICS_FILE} and {RECORDING_FILE} (default outputs/ch3.3-engine)")
+    parser.add_argument("--rerun", dest="rerun", action="store_true", default=True,
+                        help=f"write the {RECORDING_FILE} recording (the default)")
+    parser.add_argument("--no-rerun", dest="rerun", action="store_false",
+                        help="skip the recording; rerun is then never imported")
+    args = parser.parse_args(argv)
+    problem = output_folder_problem(args.out)
+    if problem:
+        parser.error(f"argument --out: {problem}")
+    if args.rerun and not module_installed("rerun"):
+        parser.error("the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun")
+    return args
+
+
+def module_installed(name: str) -> bool:
+    """True if `import name` would find something; looks without importing."""
+    import importlib.util
+
+    return importlib.util.find_spec(name) is not None
 
 
 def main(argv=None) -> int:
     args = parse_args(argv)
     started = time.perf_counter()
     banner("ch3.3-engine", device=args.device)
-    num_steps = SMOKE_STEPS if args.smoke else args.steps
+    steps = SMOKE_STEPS if args.smoke else args.steps
     names = list(INTEGRATORS) if args.integrator == "all" else [args.integrator]
     system = build_system(args.system, np.random.default_rng(args.seed))  # PCG64: the only randomness
-    show_progress = not args.smoke and num_steps * len(names) >= PROGRESS_FROM
+    every = math.ceil((steps + 1) / MAX_POINTS_PER_SERIES)  # states kept for the recording; energy: every step
+    show_progress = not args.smoke and steps * len(names) >= PROGRESS_FROM
+    metrics_path, recording_path = args.out / METRICS_FILE, args.out / RECORDING_FILE
     try:
-        runs = {}
+        runs, drifts = {}, {}
         for name in names:
-            progress = _progress_printer(name, num_steps) if show_progress else None
-            runs[name] = simulate(INTEGRATORS[name], system, args.dt, num_steps, progress)
-        drifts = {name: energy_drift(energies) for name, (_, energies) in runs.items()}
-        for name, (trajectory, _) in runs.items():
-            drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in trajectory[-1].tolist()]
+            progress = progress_printer(name, steps) if show_progress else None
+            runs[name] = positions, _, energies = simulate(INTEGRATORS[name], system, args.dt, steps, every, progress)
+            drifts[name] = energy_drift(energies)
+            drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
         args.out.mkdir(parents=True, exist_ok=True)
-        note = record(args.out / "engine.rrd", args.system, runs) if args.rerun else None
-        write_json_atomic(args.out / "metrics.json", build_metrics(args, num_steps, drifts))
+        note = record(recording_path, args.system, runs, kept_steps(steps, every)) if args.rerun else None
+        write_atomic(metrics_path, metrics_text(build_metrics(args.system, args.dt, steps, args.seed, drifts)))
     except KeyboardInterrupt:
-        print("\ninterrupted: metrics.json and engine.rrd were left as they were", file=sys.stderr)
+        print(f"\ninterrupted: {METRICS_FILE} and {RECORDING_FILE} were left as they were", file=sys.stderr)
         return 130
-    print_report(args, num_steps, drifts)
-    print(f"metrics: {args.out / 'metrics.json'}")
+    print_report(args.system, args.dt, steps, drifts)
+    print(f"metrics: {metrics_path}")
     if args.rerun:
-        print(f"recording: {args.out / 'engine.rrd'} (open it with: rerun {args.out / 'engine.rrd'})")
+        print(f"recording: {recording_path} (open it with: rerun {recording_path})")
         if note:
             print(note)
-    print(f"wall-clock: {time.perf_counter() - started:.2f} s")
+    wall_clock(started)
     return 0
 
 

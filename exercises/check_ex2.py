@@ -51,7 +51,8 @@ def rk4_variant(stage_fraction, weights):
 
 def trajectory(step_fn, system_name, dt=DT, steps=STEPS):
     system = engine.build_system(system_name, np.random.default_rng(0))
-    return engine.simulate(step_fn, system, dt, steps)
+    positions, _, energies = engine.simulate(step_fn, system, dt, steps)
+    return positions, energies
 
 
 def first_difference(step_fn, reference_fn):
@@ -80,7 +81,7 @@ def spring_order(step_fn, dt=0.02, seconds=2.0):
     for h in (dt, dt / 2):
         system = engine.build_system("spring", np.random.default_rng(0))
         steps = round(seconds / h)
-        positions, _ = engine.simulate(step_fn, system, h, steps)
+        positions, _, _ = engine.simulate(step_fn, system, h, steps)
         errors.append(np.abs(positions[-1] - spring_position(system, steps * h)).max())
     return math.log2(errors[0] / errors[1])
 

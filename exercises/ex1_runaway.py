@@ -25,7 +25,7 @@ def measure(seed: int = 0) -> dict:
     system = engine.build_system("orbit", np.random.default_rng(seed))
     table = {}
     for name, step in engine.INTEGRATORS.items():
-        _, energies = engine.simulate(step, system, DT, CHAPTER_STEPS * HORIZONS[-1])
+        _, _, energies = engine.simulate(step, system, DT, CHAPTER_STEPS * HORIZONS[-1])
         drifts = [engine.energy_drift(energies[: CHAPTER_STEPS * h + 1]) for h in HORIZONS]
         table[name] = [(d["rel_final"], d["rel_max"]) for d in drifts]
     return table

@@ -38,7 +38,7 @@ def measure(system_name: str = "orbit", seed: int = 0) -> dict:
     for name, step in engine.INTEGRATORS.items():
         errors["position"][name], errors["energy"][name] = [], []
         for dt in LADDER:
-            trajectory, energies = engine.simulate(step, system, dt, round(SIM_SECONDS / dt))
+            trajectory, _, energies = engine.simulate(step, system, dt, round(SIM_SECONDS / dt))
             errors["position"][name].append(float(np.max(np.abs(trajectory[-1] - exact_final))))
             errors["energy"][name].append(engine.energy_drift(energies)["rel_max"])
     return errors

@@ -30,7 +30,7 @@ MAX_STEPS = 5_000_000
 def semi_implicit_band(system: dict, dt: float, steps: int) -> float:
     """Worst relative energy excursion of semi-implicit Euler. It is flat in time (tests show
     10^4 and 10^6 steps agree), so a few orbits measure it."""
-    _, energies = engine.simulate(engine.semi_implicit_step, system, dt, steps)
+    _, _, energies = engine.simulate(engine.semi_implicit_step, system, dt, steps)
     return engine.energy_drift(energies)["rel_max"]
 
 
@@ -58,7 +58,7 @@ def rk4_crossover(system: dict, dt: float, band: float, progress=None) -> int | 
 def rk4_creep_per_step(system: dict, dt: float, steps: int) -> tuple[float, float]:
     """RK4's relative energy error per step, from the first and second half of a run: if the
     creep is steady, the two rates agree."""
-    _, energies = engine.simulate(engine.rk4_step, system, dt, steps)
+    _, _, energies = engine.simulate(engine.rk4_step, system, dt, steps)
     error = np.abs(energies - energies[0]) / abs(energies[0])
     half = steps // 2
     return float(error[half] / half), float((error[steps] - error[half]) / (steps - half))

@@ -18,8 +18,7 @@ GOLDEN = REPO / "tests" / "golden"
 
 
 def drift_of(system, integrator, dt=0.01, steps=2000, seed=0):
-    sys_ = engine.build_system(system, np.random.default_rng(seed))
-    _, energies = engine.simulate(engine.INTEGRATORS[integrator], sys_, dt, steps)
+    _, _, energies = engine.run(system, integrator, dt, steps, seed)
     return engine.energy_drift(energies)
 
 
@@ -70,7 +69,7 @@ def test_semi_implicit_moves_position_with_the_new_velocity():
 def test_energy_is_the_same_for_one_state_and_for_a_history():
     for system in ("orbit", "spring", "freefall"):
         sys_ = engine.build_system(system, np.random.default_rng(3))
-        traj, energies = engine.simulate(engine.rk4_step, sys_, 0.05, 50)
+        traj, _, energies = engine.simulate(engine.rk4_step, sys_, 0.05, 50)
         q, v = sys_["q0"].astype(float), sys_["v0"].astype(float)
         for _ in range(50):
             q, v = engine.rk4_step(q, v, sys_["m"], sys_["force"], 0.05)
@@ -164,3 +163,45 @@ def test_absurd_timesteps_run_quietly_and_write_strict_json(system, dt, tmp_path
     for d in metrics["drift"].values():
         assert (d["rel_max"] is None) == d["diverged"]
     assert capsys.readouterr().err == ""
+
+
+def test_a_system_that_breaks_the_contract_gets_a_sentence():
+    """energy written with `v @ v` sums over the whole batch; a force of the wrong shape; a bad q0."""
+    system = engine.build_system("spring", np.random.default_rng(0))
+    batch = {**system, "q0": np.stack([system["q0"]] * 4), "v0": np.stack([system["v0"]] * 4)}
+    with pytest.raises(ValueError, match=r"energy\(q, v\) must return one number per body, shape \(4,\)"):
+        engine.simulate(engine.euler_step, {**batch, "energy": lambda q, v: 0.5 * (v * v).sum()}, 0.01, 2)
+    with pytest.raises(ValueError, match=r"force\(q, v\) must return one force per body, shape \(3,\)"):
+        engine.simulate(engine.euler_step, {**system, "force": lambda q, v: -4.0}, 0.01, 2)
+    with pytest.raises(ValueError, match=r"q0 and v0 must both be \(3,\)"):
+        engine.simulate(engine.euler_step, {**system, "q0": np.zeros(2)}, 0.01, 2)
+
+
+@pytest.mark.parametrize("system", engine.SYSTEMS)
+def test_a_batch_steps_each_body_as_if_alone(system):
+    """The same code steps one body (3,) or a batch (N, 3): each row is its own single run, bit for bit."""
+    seeds = [0, 5, 7]
+    ensemble = engine.build_ensemble(system, seeds)
+    for integrator, step in engine.INTEGRATORS.items():
+        positions, velocities, energies = engine.simulate(step, ensemble, 0.02, 300)
+        assert positions.shape == (301, 3, 3) and energies.shape == (301, 3)
+        for i, seed in enumerate(seeds):
+            alone = engine.run(system, integrator, 0.02, 300, seed)
+            assert np.array_equal(positions[:, i], alone[0]) and np.array_equal(velocities[:, i], alone[1])
+            assert np.array_equal(energies[:, i], alone[2])
+
+
+def test_kept_states_thin_out_but_always_include_the_last():
+    assert engine.kept_steps(10, 4).tolist() == [0, 4, 8, 10]
+    assert engine.kept_steps(8, 4).tolist() == [0, 4, 8]
+    positions, velocities, energies = engine.run("orbit", "semi_implicit", steps=10, every=4)
+    full, _, all_energies = engine.run("orbit", "semi_implicit", steps=10)
+    assert np.array_equal(positions, full[[0, 4, 8, 10]]) and len(velocities) == 4
+    assert np.array_equal(energies, all_energies)  # energy is kept for every step
+
+
+def test_the_table_keeps_its_columns_for_large_values(capsys):
+    drifts = {"euler": engine.energy_drift(np.array([2.111192736, 2.1443e8]))}
+    engine.print_report("spring", 0.05, 2000, drifts)
+    row = capsys.readouterr().out.splitlines()[-1].split()
+    assert row == ["euler", "2.1112", "2.1443e+08", "+1.0157e+08", "1.0157e+08"]

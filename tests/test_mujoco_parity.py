@@ -15,9 +15,8 @@ SYSTEMS = ["spring", "freefall", "orbit"]
 
 
 def ours(system_name, integrator, dt=0.01, steps=2000):
-    system = engine.build_system(system_name, np.random.default_rng(0))
-    trajectory, _ = engine.simulate(engine.INTEGRATORS[integrator], system, dt, steps)
-    return trajectory
+    positions, _, _ = engine.run(system_name, integrator, dt, steps)
+    return positions
 
 
 def test_pinned_version():

@@ -1,7 +1,9 @@
-"""The banner every chapter prints first, so a pasted log says where it ran."""
+"""The banner every chapter prints first, and the wall-clock line it prints last,
+so that a pasted log says where it ran and how long it took."""
 
 import platform
 import sys
+import time
 
 import numpy as np
 
@@ -22,5 +24,15 @@ def banner(chapter: str, device: str = "cpu", stream=None) -> str:
         f"[{chapter}] tier: {TIERS[device]} ({device}) | "
         f"python {platform.python_version()} | numpy {np.__version__}"
     )
+    print(line, file=stream or sys.stdout, flush=True)
+    return line
+
+
+def wall_clock(started: float, stream=None) -> str:
+    """Print and return `wall-clock: 0.54 s`, the time since `started` (a time.perf_counter() reading).
+
+    Printed, never written to metrics.json: it differs from run to run.
+    """
+    line = f"wall-clock: {time.perf_counter() - started:.2f} s"
     print(line, file=stream or sys.stdout, flush=True)
     return line

@@ -1,0 +1,81 @@
+"""Command-line plumbing every chapter script shares, so the chapter files keep only their own flags.
+
+    from curriculum.common.cli import OneLineParser, positive_finite, int_in, output_folder_problem
+
+Bad input gets one line naming the problem and exit code 2, never a usage block or a traceback.
+"""
+
+import argparse
+import math
+import os
+import sys
+from pathlib import Path
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line: `prog: error: what is wrong (see --help)`."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def positive_finite(what: str):
+    """Argument type: a float that is finite and > 0, e.g. a timestep."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not (math.isfinite(value) and value > 0.0):
+            raise argparse.ArgumentTypeError(f"{what} must be a positive, finite number, got {text}")
+        return value
+
+    return parse
+
+
+def int_in(low: int, high: int | None, what: str):
+    """Argument type: a whole number from `low` to `high` (no upper bound if high is None)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text.replace("_", "").replace(",", ""))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if value < low or (high is not None and value > high):
+            bound = f"from {low:,} to {high:,}" if high is not None else f"{low:,} or more"
+            raise argparse.ArgumentTypeError(f"{what} must be {bound}, got {value:,}")
+        return value
+
+    return parse
+
+
+def output_folder_problem(out: Path) -> str | None:
+    """Why `out` cannot hold a run's files, or None if it can. Looks only: creates nothing."""
+    if out.exists():
+        return None if out.is_dir() and os.access(out, os.W_OK | os.X_OK) else f"{out} is not a writable directory"
+    parent = out.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        return f"{out} cannot be created: {parent} is not a writable directory"
+    return None
+
+
+def progress_printer(label: str, total: int, stream=None):
+    """A callback progress(done) that redraws one line: `  label  45% of 1,000,000 steps`.
+
+    On a terminal the line is redrawn in place; otherwise (a log file, a pipe) each report is its
+    own line, so the log stays readable. The last report ends the line.
+    """
+    stream = stream or sys.stderr
+    in_place = stream.isatty()
+
+    def show(done: int) -> None:
+        text = f"  {label:<14}{done / total:>5.0%} of {total:,} steps"
+        if in_place:
+            print("\r" + text, end="\n" if done >= total else "", file=stream, flush=True)
+        else:
+            print(text, file=stream, flush=True)
+
+    return show

@@ -1,0 +1,85 @@
+"""curriculum/common: the machinery every chapter script shares, tested on its own."""
+
+import argparse
+import io
+
+import pytest
+
+from curriculum.common import (OneLineParser, int_in, output_folder_problem, positive_finite, progress_printer,
+                               wall_clock, write_atomic)
+
+
+def test_one_line_parser_exits_2_with_one_line(capsys):
+    parser = OneLineParser(prog="chapter.py")
+    parser.add_argument("--n", type=int_in(1, 10, "--n"))
+    with pytest.raises(SystemExit) as stop:
+        parser.parse_args(["--n", "11"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert err == "chapter.py: error: argument --n: --n must be from 1 to 10, got 11 (see --help)\n"
+
+
+@pytest.mark.parametrize("text, value", [("0.01", 0.01), ("1e-3", 1e-3), ("7", 7.0)])
+def test_positive_finite_accepts(text, value):
+    assert positive_finite("dt")(text) == value
+
+
+@pytest.mark.parametrize("text", ["0", "-1", "nan", "inf", "-inf", "fast", ""])
+def test_positive_finite_refuses(text):
+    with pytest.raises(argparse.ArgumentTypeError):
+        positive_finite("dt")(text)
+
+
+def test_int_in_reads_numbers_as_people_write_them():
+    parse = int_in(1, 10_000_000, "--steps")
+    assert parse("10,000") == parse("10_000") == parse("10000") == 10_000
+    for bad in ("1.5", "1e4", "", "ten"):
+        with pytest.raises(argparse.ArgumentTypeError, match="not a whole number"):
+            parse(bad)
+    with pytest.raises(argparse.ArgumentTypeError, match="from 1 to 10,000,000"):
+        parse("0")
+    with pytest.raises(argparse.ArgumentTypeError, match="0 or more"):
+        int_in(0, None, "--seed")("-1")
+
+
+def test_output_folder_problem_looks_but_creates_nothing(tmp_path):
+    assert output_folder_problem(tmp_path) is None
+    assert output_folder_problem(tmp_path / "new" / "deeper") is None
+    assert not (tmp_path / "new").exists()
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert "is not a writable directory" in output_folder_problem(blocker)
+    assert "cannot be created" in output_folder_problem(blocker / "sub")
+
+
+class Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_redraws_in_place_on_a_terminal_and_prints_lines_in_a_log():
+    tty = Terminal()
+    show = progress_printer("rk4", 200, stream=tty)
+    show(100)
+    show(200)
+    assert tty.getvalue() == "\r  rk4             50% of 200 steps\r  rk4            100% of 200 steps\n"
+    log = io.StringIO()
+    show = progress_printer("rk4", 200, stream=log)
+    show(100)
+    show(200)
+    assert log.getvalue().splitlines() == ["  rk4             50% of 200 steps", "  rk4            100% of 200 steps"]
+
+
+def test_wall_clock_line():
+    out = io.StringIO()
+    line = wall_clock(0.0, stream=out)
+    assert line.startswith("wall-clock: ") and line.endswith(" s") and out.getvalue() == line + "\n"
+
+
+def test_write_atomic_replaces_the_file_whole_and_leaves_no_temporary(tmp_path):
+    target = tmp_path / "metrics.json"
+    target.write_text("old\n")
+    write_atomic(target, "new\n")
+    write_atomic(tmp_path / "engine.rrd", b"\x00bytes")
+    assert target.read_text() == "new\n" and (tmp_path / "engine.rrd").read_bytes() == b"\x00bytes"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["engine.rrd", "metrics.json"]
