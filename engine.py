@@ -21,18 +21,14 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+try:  # numpy takes a moment to load: a Ctrl-C meanwhile ends in one line, as it does later
+    import numpy as np
 
-from curriculum.common import (
-    OneLineParser,
-    banner,
-    int_in,
-    output_folder_problem,
-    positive_finite,
-    progress_printer,
-    wall_clock,
-    write_atomic,
-)
+    from curriculum.common import OneLineParser, banner, int_in, positive_finite, progress_printer, wall_clock
+    from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
+except KeyboardInterrupt:
+    print("interrupted: no file was written", file=sys.stderr)
+    raise SystemExit(130) from None
 
 # --- settings ---
 
@@ -249,16 +245,18 @@ def energy_drift(energies: np.ndarray) -> dict:
     If the energy overflowed or went NaN, the figures are None and diverged_at_step says when.
     """
     e0 = float(energies[0])
-    finite = np.isfinite(energies)
+    scale = abs(e0) if e0 != 0.0 else 1.0
+    with np.errstate(all="ignore"):  # finite energies can still be so far apart that the error overflows
+        error = np.abs(energies - e0) / scale
+    finite = np.isfinite(error)  # False where the energy is inf/NaN, or where its error is
     if not finite.all():
         return {"e0": e0, "e_final": None, "rel_final": None, "rel_max": None,
                 "diverged": True, "diverged_at_step": int(np.argmin(finite))}
-    scale = abs(e0) if e0 != 0.0 else 1.0
     return {
         "e0": e0,
         "e_final": float(energies[-1]),
         "rel_final": float((energies[-1] - e0) / scale),
-        "rel_max": float(np.max(np.abs(energies - e0)) / scale),
+        "rel_max": float(np.max(error)),
         "diverged": False,
         "diverged_at_step": None,
     }
@@ -270,10 +268,13 @@ def energy_drift(energies: np.ndarray) -> dict:
 # beside them one plot where the integrators' energy errors overlay (raw energy in a tab).
 
 
-def record(path: Path, system_name: str, runs: dict, kept: np.ndarray) -> str | None:
-    """Write runs {name: (positions, velocities, energies)} to `path`. Returns a note if thinned.
+def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str) -> tuple[bytes, str | None]:
+    """The .rrd bytes of runs {name: (positions, velocities, energies)}, and a note if thinned.
 
     `kept` are the step numbers of the kept states; energies are logged at those steps too.
+    The recording is built in memory and saved by write_run() beside metrics.json, whose
+    run_id it carries as its recording id: a full disk is then our error to report, not a
+    hang inside Rerun's file sink.
     """
     import rerun as rr
     import rerun.blueprint as rrb
@@ -289,25 +290,21 @@ def record(path: Path, system_name: str, runs: dict, kept: np.ndarray) -> str | 
             ),
         ),
     )
-    partial = path.with_name(path.name + ".partial")
-    recording = rr.RecordingStream(APPLICATION_ID)
-    try:
-        recording.save(partial, default_blueprint=blueprint)
-        if system_name == "orbit":  # the fixed attractor the orbit's ellipse has at one focus
-            recording.log("world/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03]), static=True)
-        for name, (positions, _, energies) in runs.items():
-            log_path(recording, name, positions)
-            log_energy(recording, name, kept, energies[kept])
-            log_relative_error(recording, name, kept, energies[kept], energies[0])
-        recording.flush()
-        recording.disconnect()
-        partial.replace(path)
-    finally:
-        partial.unlink(missing_ok=True)
+    recording = rr.RecordingStream(APPLICATION_ID, recording_id=run_id)
+    in_memory = recording.memory_recording()
+    recording.send_blueprint(blueprint, make_active=False, make_default=True)
+    if system_name == "orbit":  # the fixed attractor the orbit's ellipse has at one focus
+        recording.log("world/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03]), static=True)
+    for name, (positions, _, energies) in runs.items():
+        log_path(recording, name, positions)
+        log_energy(recording, name, kept, energies[kept])
+        log_relative_error(recording, name, kept, energies[kept], energies[0])
+    data = in_memory.drain_as_bytes()
     if len(kept) == steps + 1:
-        return None
+        return data, None
     every = int(kept[1] - kept[0])
-    return f"recording keeps 1 state in {every} of {steps + 1:,} per integrator, to stay viewable (metrics use all)"
+    return data, f"recording keeps 1 state in {every} of {steps + 1:,} per integrator, to stay viewable " \
+                 "(metrics use all)"
 
 
 def log_path(recording, name, positions):
@@ -385,6 +382,8 @@ def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
         diverged = [name for name, d in drifts.items() if d["diverged"]]
         if diverged:
             verdict = f"cannot judge, {' and '.join(diverged)} diverged (try a smaller --dt)"
+        elif drifts["semi_implicit"]["rel_max"] > 1.0:  # its energy error passed 100%: no band is left to hold
+            verdict = "cannot judge, semi_implicit left its bounded band too (rel_max > 1: try a smaller --dt)"
         else:
             euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
             ok = abs(euler["rel_final"]) > semi["rel_max"] > rk4["rel_max"]
@@ -411,28 +410,38 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
-    parser.add_argument("--out", type=Path, default=Path("outputs/ch3.3-engine"),
+    parser.add_argument("--out", type=folder_arg, default=Path("outputs/ch3.3-engine"),
                         help=f"folder for {METRICS_FILE} and {RECORDING_FILE} (default outputs/ch3.3-engine)")
     parser.add_argument("--rerun", dest="rerun", action="store_true", default=True,
                         help=f"write the {RECORDING_FILE} recording (the default)")
     parser.add_argument("--no-rerun", dest="rerun", action="store_false",
                         help="skip the recording; rerun is then never imported")
     args = parser.parse_args(argv)
-    problem = output_folder_problem(args.out)
+    problem = folder_problem(args.out, [METRICS_FILE, RECORDING_FILE] if args.rerun else [METRICS_FILE])
     if problem:
         parser.error(f"argument --out: {problem}")
-    if args.rerun and not module_installed("rerun"):
-        parser.error("the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun")
+    problem = args.rerun and rerun_problem()
+    if problem:
+        parser.error(problem)
     return args
 
 
-def module_installed(name: str) -> bool:
-    """True if `import name` would find something; looks without importing."""
-    import importlib.util
+def rerun_problem() -> str | None:
+    """Why the recording cannot be made (rerun-sdk missing or broken), or None. Imports it: needed anyway."""
+    try:
+        import rerun  # noqa: F401
+    except ImportError as error:
+        if error.name == "rerun":
+            return "the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun"
+        why = f"{type(error).__name__}: {error}".splitlines()[0]
+    except Exception as error:  # a broken install fails in many ways
+        why = f"{type(error).__name__}: {error}".splitlines()[0]
+    else:
+        return None
+    return f"rerun-sdk is installed but does not import ({why}); reinstall it (`pip install -e .`) or pass --no-rerun"
 
-    return importlib.util.find_spec(name) is not None
 
-
+@one_line_failures("engine.py", memory_hint="fewer --steps need less")  # Ctrl-C 130, SIGTERM 143, OS errors: one line
 def main(argv=None) -> int:
     args = parse_args(argv)
     started = time.perf_counter()
@@ -443,25 +452,30 @@ def main(argv=None) -> int:
     every = math.ceil((steps + 1) / MAX_POINTS_PER_SERIES)  # states kept for the recording; energy: every step
     show_progress = not args.smoke and steps * len(names) >= PROGRESS_FROM
     metrics_path, recording_path = args.out / METRICS_FILE, args.out / RECORDING_FILE
-    try:
-        runs, drifts = {}, {}
-        for name in names:
-            progress = progress_printer(name, steps) if show_progress else None
-            runs[name] = positions, _, energies = simulate(INTEGRATORS[name], system, args.dt, steps, every, progress)
-            drifts[name] = energy_drift(energies)
-            drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
-        args.out.mkdir(parents=True, exist_ok=True)
-        note = record(recording_path, args.system, runs, kept_steps(steps, every)) if args.rerun else None
-        write_atomic(metrics_path, metrics_text(build_metrics(args.system, args.dt, steps, args.seed, drifts)))
-    except KeyboardInterrupt:
-        print(f"\ninterrupted: {METRICS_FILE} and {RECORDING_FILE} were left as they were", file=sys.stderr)
-        return 130
+    runs, drifts = {}, {}
+    for name in names:
+        progress = progress_printer(name, steps) if show_progress else None
+        runs[name] = positions, _, energies = simulate(INTEGRATORS[name], system, args.dt, steps, every, progress)
+        drifts[name] = energy_drift(energies)
+        drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
+    metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts)
+    metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
+    files, note = {}, None
+    if args.rerun:
+        files[RECORDING_FILE], note = record(args.system, runs, kept_steps(steps, every), metrics["run_id"])
+    files[METRICS_FILE] = metrics_text(metrics)
+    write_run(args.out, files)  # all on disk before any replaces its old file; metrics.json last
     print_report(args.system, args.dt, steps, drifts)
+    if all(np.array_equal(p[-1], p[0]) and np.array_equal(v[-1], v[0]) for p, v, _ in runs.values()):
+        print(f"engine.py: warning: --dt {args.dt} is too small to move the state: after {steps:,} steps every "
+              "position and velocity is exactly where it started", file=sys.stderr)
     print(f"metrics: {metrics_path}")
     if args.rerun:
         print(f"recording: {recording_path} (open it with: rerun {recording_path})")
         if note:
             print(note)
+    elif recording_path.exists():
+        print(f"note: {recording_path} is from an earlier run (this one wrote no recording)")
     wall_clock(started)
     return 0
 
