@@ -5,8 +5,15 @@ import io
 
 import pytest
 
-from curriculum.common import (OneLineParser, int_in, output_folder_problem, positive_finite, progress_printer,
-                               wall_clock, write_atomic)
+from curriculum.common import (
+    OneLineParser,
+    int_in,
+    output_folder_problem,
+    positive_finite,
+    progress_printer,
+    wall_clock,
+    write_atomic,
+)
 
 
 def test_one_line_parser_exits_2_with_one_line(capsys):
