@@ -14,14 +14,17 @@ Run it from the repo root:
 Open the recording with `rerun outputs/ch3.3-engine/engine.rrd`.
 """
 
-import argparse
-import json
-import math
-import sys
-import time
-from pathlib import Path
+from __future__ import annotations  # annotations stay text: np.random loads in main(), not at import
 
-try:  # numpy takes a moment to load: a Ctrl-C meanwhile ends in one line, as it does later
+import sys
+
+try:  # loading takes a moment (numpy most of it): a Ctrl-C meanwhile ends in one line, as it does later
+    import argparse
+    import json
+    import math
+    import time
+    from pathlib import Path
+
     import numpy as np
 
     from curriculum.common import OneLineParser, banner, int_in, positive_finite, progress_printer, wall_clock
@@ -262,6 +265,13 @@ def energy_drift(energies: np.ndarray) -> dict:
     }
 
 
+def did_not_move(positions: np.ndarray, velocities: np.ndarray) -> bool:
+    """True if the last state is the first to within one rounding step of the state's size (dt too small)."""
+    start = np.concatenate([positions[0].ravel(), velocities[0].ravel()])
+    change = np.concatenate([(positions[-1] - positions[0]).ravel(), (velocities[-1] - velocities[0]).ravel()])
+    return bool(np.all(np.abs(change) <= np.spacing(np.max(np.abs(start)))))
+
+
 # --- record ---
 # All of Rerun lives here, imported only when a recording is asked for, so the physics
 # and the tests run without it. The file opens on three things: the paths in 3D, and
@@ -292,14 +302,16 @@ def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str) -> tuple
     )
     recording = rr.RecordingStream(APPLICATION_ID, recording_id=run_id)
     in_memory = recording.memory_recording()
-    recording.send_blueprint(blueprint, make_active=False, make_default=True)
-    if system_name == "orbit":  # the fixed attractor the orbit's ellipse has at one focus
-        recording.log("world/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03]), static=True)
-    for name, (positions, _, energies) in runs.items():
-        log_path(recording, name, positions)
-        log_energy(recording, name, kept, energies[kept])
-        log_relative_error(recording, name, kept, energies[kept], energies[0])
-    data = in_memory.drain_as_bytes()
+    try:
+        recording.send_blueprint(blueprint, make_active=False, make_default=True)
+        if system_name == "orbit":  # the fixed attractor the orbit's ellipse has at one focus
+            recording.log("world/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03]), static=True)
+        for name, (positions, _, energies) in runs.items():
+            log_path(recording, name, positions)
+            log_energy(recording, name, kept, energies[kept])
+            log_relative_error(recording, name, kept, energies[kept], energies[0])
+    finally:
+        data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
     if len(kept) == steps + 1:
         return data, None
     every = int(kept[1] - kept[0])
@@ -373,19 +385,20 @@ def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
     print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
     for name, d in drifts.items():
         if d["diverged"]:
-            print(f"{name:<14}{cell(d['e0'], 12)}  diverged: energy non-finite from step {d['diverged_at_step']:,}")
+            step = d["diverged_at_step"]
+            print(f"{name:<14}{cell(d['e0'], 12)}  diverged: energy error non-finite from step {step:,}")
         else:
             print(f"{name:<14}{cell(d['e0'], 12)}{cell(d['e_final'], 14)}"
                   f"{d['rel_final']:>+14.4e}{d['rel_max']:>14.4e}")
     if set(drifts) == set(INTEGRATORS) and system_name in ("orbit", "spring"):
         # The headline, stated as an ordering so it holds for any seed.
         diverged = [name for name, d in drifts.items() if d["diverged"]]
+        euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
         if diverged:
             verdict = f"cannot judge, {' and '.join(diverged)} diverged (try a smaller --dt)"
-        elif drifts["semi_implicit"]["rel_max"] > 1.0:  # its energy error passed 100%: no band is left to hold
-            verdict = "cannot judge, semi_implicit left its bounded band too (rel_max > 1: try a smaller --dt)"
+        elif semi["rel_max"] > 1.0:  # an energy error past 100%: the bounded one has no band left to hold
+            verdict = f"cannot judge, semi_implicit left its band (rel_max {semi['rel_max']:.3g}; try a smaller --dt)"
         else:
-            euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
             ok = abs(euler["rel_final"]) > semi["rel_max"] > rk4["rel_max"]
             verdict = "as expected" if ok else "UNEXPECTED: investigate"
         print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: {verdict}")
@@ -438,6 +451,8 @@ def rerun_problem() -> str | None:
         why = f"{type(error).__name__}: {error}".splitlines()[0]
     else:
         return None
+    if "failed to map segment" in why or "Cannot allocate memory" in why:  # a memory limit (ulimit -v)
+        return f"not enough memory to load rerun-sdk ({why}); raise the memory limit or pass --no-rerun"
     return f"rerun-sdk is installed but does not import ({why}); reinstall it (`pip install -e .`) or pass --no-rerun"
 
 
@@ -466,9 +481,9 @@ def main(argv=None) -> int:
     files[METRICS_FILE] = metrics_text(metrics)
     write_run(args.out, files)  # all on disk before any replaces its old file; metrics.json last
     print_report(args.system, args.dt, steps, drifts)
-    if all(np.array_equal(p[-1], p[0]) and np.array_equal(v[-1], v[0]) for p, v, _ in runs.values()):
-        print(f"engine.py: warning: --dt {args.dt} is too small to move the state: after {steps:,} steps every "
-              "position and velocity is exactly where it started", file=sys.stderr)
+    if all(did_not_move(positions, velocities) for positions, velocities, _ in runs.values()):
+        print(f"engine.py: warning: --dt {args.dt} is too small to move the state: after {steps:,} steps no position "
+              "or velocity changed by even one rounding step, so the drifts above measure nothing", file=sys.stderr)
     print(f"metrics: {metrics_path}")
     if args.rerun:
         print(f"recording: {recording_path} (open it with: rerun {recording_path})")

@@ -359,10 +359,11 @@ def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
             except MemoryError:
                 return _stop(1, f"{prog}: error: out of memory ({memory_hint}); {_what_was_written()}")
             except OSError as error:
-                if not _stdout_broken(error):
+                if not _printing_failed(error):
                     raise
                 _silence_stdout()
-                return _stop(1, f"{prog}: error: could not print to stdout ({_says(error)}); {_what_was_written()}")
+                return _stop(1, f"{prog}: error: could not print the report ({_says(error)}: stdout closed or full?); "
+                                f"{_what_was_written()}")
             finally:
                 restore()
 
@@ -410,17 +411,13 @@ def _stop(code: int, message: str) -> int:
     return code
 
 
-def _stdout_broken(error: OSError) -> bool:
-    """Whether `error` came from printing: stdout is closed (EPIPE) or cannot take more (full, I/O error)."""
-    if isinstance(error, BrokenPipeError):
-        return True
-    if error.errno not in (errno.ENOSPC, errno.EIO, errno.EBADF, errno.EDQUOT, errno.EFBIG):
-        return False
-    try:
-        sys.stdout.flush()
-    except OSError:
-        return True
-    return False
+def _printing_failed(error: OSError) -> bool:
+    """Whether `error` is what printing to a closed (EPIPE) or full stream raises.
+
+    Every failure of write_run() arrives as an OutputError, so an OSError like this one that
+    reaches main() came from print(): the one other thing a run writes to.
+    """
+    return error.errno in (errno.EPIPE, errno.ENOSPC, errno.EIO, errno.EBADF, errno.EDQUOT, errno.EFBIG)
 
 
 def _silence_stdout() -> None:
