@@ -298,10 +298,10 @@ def shared_tmp():
     shutil.rmtree(where)
 
 
-def as_nobody(code: str, *args) -> subprocess.CompletedProcess:
-    """Run `code` as user nobody. The interpreter (under /root, private) starts as root and imports the
-    writer, then drops every privilege for good before `code` touches a file."""
-    drop = f"import os; import curriculum.common.outputs; os.setgroups([]); os.setgid({NOBODY}); os.setuid({NOBODY})\n"
+def as_nobody(code: str, *args, load: str = "import curriculum.common.outputs") -> subprocess.CompletedProcess:
+    """Run `code` as user nobody. The interpreter (under /root, private) starts as root and imports what
+    `load` names, then drops every privilege for good before `code` touches a file."""
+    drop = f"import os; {load}; os.setgroups([]); os.setgid({NOBODY}); os.setuid({NOBODY})\n"
     return subprocess.run([sys.executable, "-c", drop + code, *map(str, args)], cwd=REPO,
                           capture_output=True, text=True, timeout=60)
 
@@ -397,3 +397,293 @@ def test_importing_the_writer_installs_no_handler():
            "print(before is signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)"
     result = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True)
     assert result.stdout == "True\n"
+
+
+# === engine.py as a student runs it: the same guarantees end to end ===
+
+ENGINE = REPO / "engine.py"
+
+
+def engine(*args, **kwargs) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(ENGINE), *map(str, args)], cwd=kwargs.pop("cwd", REPO),
+                          capture_output=True, text=True, timeout=kwargs.pop("timeout", 120), **kwargs)
+
+
+def recording_id(path: Path) -> str:
+    rerun_chunk = pytest.importorskip("rerun.chunk")
+    (recording,) = rerun_chunk.RrdReader(path).recordings()
+    return recording.recording_id
+
+
+def assert_one_line(result, code: int, *words: str) -> None:
+    assert result.returncode == code, (result.returncode, result.stderr)
+    assert len(result.stderr.splitlines()) == 1 and "Traceback" not in result.stderr, result.stderr
+    for word in words:
+        assert word in result.stderr, result.stderr
+
+
+def test_both_files_carry_one_run_id_and_metrics_stay_deterministic(tmp_path):
+    assert engine("--smoke", "--out", tmp_path / "a").returncode == 0
+    assert engine("--smoke", "--out", tmp_path / "b").returncode == 0
+    text = (tmp_path / "a" / "metrics.json").read_text()
+    assert text == (tmp_path / "b" / "metrics.json").read_text()  # same flags, same bytes
+    metrics = json.loads(text)
+    run_id = metrics.pop("run_id")
+    assert run_id == content_id(json.dumps(metrics, indent=2, sort_keys=True) + "\n")  # anyone can recompute it
+    assert recording_id(tmp_path / "a" / "engine.rrd") == run_id
+
+
+def test_concurrent_runs_into_one_folder_each_leave_a_pair_from_one_run(tmp_path):
+    out = tmp_path / "out"
+    runs = [subprocess.Popen([sys.executable, str(ENGINE), "--smoke", "--seed", str(seed), "--out", str(out)],
+                             cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            for seed in range(4)]
+    for run in runs:
+        _, stderr = run.communicate(timeout=120)
+        assert run.returncode == 0 and stderr == ""
+    assert listing(out) == sorted(PAIR)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert recording_id(out / "engine.rrd") == metrics["run_id"] and metrics["seed"] in range(4)
+
+
+def test_engine_on_a_full_disk_is_one_line_and_keeps_the_previous_pair():
+    with small_tmpfs(96) as disk:
+        out = disk / "out"
+        before = previous_pair(out)
+        result = engine("--smoke", "--out", out)  # the recording is ~130 KB: it cannot fit
+        assert_one_line(result, 1, "No space left on device", "were left as they were")
+        assert_unchanged(out, before)
+        fill(disk)  # --no-rerun on a disk with no byte left: metrics.json alone cannot be written
+        result = engine("--smoke", "--no-rerun", "--out", out)
+        assert_one_line(result, 1, "No space left on device")
+        assert_unchanged(out, before)
+
+
+def fill(disk: Path) -> None:
+    with contextlib.suppress(OSError), open(disk / "filler", "wb", buffering=0) as filler:
+        while True:
+            filler.write(b"\0" * 4096)
+
+
+def test_engine_never_writes_through_a_planted_symlink(tmp_path):
+    victim = tmp_path / "victim"
+    victim.write_text("precious\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in ("metrics.json.partial", "engine.rrd.partial"):
+        (out / name).symlink_to(victim)
+    assert engine("--smoke", "--out", out).returncode == 0
+    assert victim.read_text() == "precious\n"
+    assert listing(out) == sorted([*PAIR, "metrics.json.partial", "engine.rrd.partial"])
+
+
+LONG_NAME = "x" * 300
+BAD_OUT = {
+    "under /sys": ("/sys/kernel/ch3.3-out", "/sys/kernel/ch3.3-out"),
+    "dangling symlink": ("dangling", "is a symbolic link to nowhere, which does not exist"),
+    "looping symlink": ("loop", "a symbolic link that loops"),
+    "300-character name": (f"new/{LONG_NAME}/out", "a name in it is 300 characters"),
+    "metrics.json is a folder": ("taken", "metrics.json is a folder"),
+    "engine.rrd is a folder": ("taken-rrd", "engine.rrd is a folder"),
+    "empty": ("", "the output folder is empty"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_OUT)
+def test_an_out_that_cannot_take_the_files_is_bad_input_found_before_the_run(case, tmp_path):
+    out, words = BAD_OUT[case]
+    (tmp_path / "dangling").symlink_to("nowhere")
+    (tmp_path / "loop").symlink_to("loop")
+    (tmp_path / "taken" / "metrics.json").mkdir(parents=True)
+    (tmp_path / "taken-rrd" / "engine.rrd").mkdir(parents=True)
+    before = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
+    result = engine("--steps", "10000000", "--out", out, cwd=tmp_path, timeout=30)  # found before 10 M steps
+    assert_one_line(result, 2, "--out", words)
+    assert result.stdout == ""
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == before  # nothing created
+
+
+def test_an_unwritable_out_is_bad_input_for_an_unprivileged_user(shared_tmp):
+    (shared_tmp / "ro").mkdir(mode=0o755)
+    code = "import sys; sys.exit(engine.main(['--smoke', '--no-rerun', '--out', sys.argv[1]]))"
+    loaded = "import engine, numpy.random, gettext, locale, shutil, textwrap"  # what argparse loads lazily
+    result = as_nobody(code, shared_tmp / "ro" / "out", load=loaded)
+    assert_one_line(result, 2, "--out", "Permission denied")
+    assert listing(shared_tmp / "ro") == []
+
+
+def test_a_broken_rerun_install_is_one_line_before_anything_is_made(tmp_path):
+    fake = tmp_path / "site" / "rerun"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("from rerun_bindings import a_name_this_build_lacks\n")  # a half-installed SDK
+    result = engine("--out", tmp_path / "out", env={**os.environ, "PYTHONPATH": str(tmp_path / "site")})
+    assert_one_line(result, 2, "rerun-sdk is installed but does not import", "--no-rerun")
+    assert result.stdout == "" and listing(tmp_path) == ["site"]
+
+
+def test_out_of_memory_at_the_step_cap_is_one_line(tmp_path):
+    import resource
+
+    code = "import re, engine; print(re.search(r'VmSize:\\s+(\\d+)', open('/proc/self/status').read()).group(1))"
+    loaded = int(subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True).stdout)
+    limit = loaded * 1024 + 30 * 2**20  # what the imports need and 30 MB: less than one 80 MB energy history
+
+    def limit_memory():
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+    result = engine("--steps", "10000000", "--integrator", "euler", "--no-rerun", "--out", tmp_path / "out",
+                    preexec_fn=limit_memory)
+    assert_one_line(result, 1, "out of memory", "no file was written")
+    assert listing(tmp_path) == []
+
+
+# --- stdout closed or full ---
+
+
+def test_stdout_closed_early_is_one_line_and_the_files_are_whole(tmp_path):
+    run = subprocess.Popen([sys.executable, str(ENGINE), "--smoke", "--out", str(tmp_path)], cwd=REPO,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert run.stdout.readline().startswith("[ch3.3-engine]")  # like `| head -1`
+    run.stdout.close()
+    stderr = run.stderr.read()
+    assert run.wait(timeout=120) == 1
+    assert stderr.splitlines() == [f"engine.py: error: could not print the report (Broken pipe: stdout closed or "
+                                   f"full?); engine.rrd and metrics.json in {tmp_path} were written before that"]
+    assert recording_id(tmp_path / "engine.rrd") == json.loads((tmp_path / "metrics.json").read_text())["run_id"]
+
+
+def test_a_full_stdout_is_one_line_and_nothing_is_written(tmp_path):
+    with open("/dev/full", "w") as full:
+        result = subprocess.run([sys.executable, str(ENGINE), "--smoke", "--no-rerun", "--out", str(tmp_path / "o")],
+                                cwd=REPO, stdout=full, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert result.returncode == 1
+    assert result.stderr == "engine.py: error: could not print the report (No space left on device: stdout closed " \
+                            "or full?); no file was written\n"
+    assert listing(tmp_path) == []
+
+
+# --- signals during a run ---
+
+
+def test_sigterm_during_the_simulation_exits_143_and_keeps_the_previous_pair(tmp_path):
+    before = previous_pair(tmp_path)
+    run = subprocess.Popen([sys.executable, str(ENGINE), "--steps", "5000000", "--out", str(tmp_path)], cwd=REPO,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    while run.stderr.read(1) != "%":  # its first progress report: integrating
+        pass
+    run.terminate()
+    _, stderr = run.communicate(timeout=60)
+    assert run.returncode == 143 and stderr.splitlines()[-1] == "terminated: no file was written"
+    assert_unchanged(tmp_path, before)
+
+
+AT_A_MOMENT = textwrap.dedent("""
+    import os, signal, sys
+    import engine
+    from curriculum.common import outputs
+    signame, where, attribute, out = sys.argv[1:5]
+    owner = engine if where == "engine" else outputs.os
+    real = getattr(owner, attribute)
+    def signal_here(*args, **kwargs):  # the signal lands at this exact moment of the run
+        setattr(owner, attribute, real)
+        result = real(*args, **kwargs)
+        os.kill(os.getpid(), getattr(signal, signame))
+        return result
+    setattr(owner, attribute, signal_here)
+    sys.exit(engine.main(["--smoke", "--out", out]))
+""")
+
+MOMENTS = {  # where the signal lands -> what the one line says about the files
+    "while the recording is built": ("engine", "log_energy", "no file was written"),
+    "while the recording is written": ("os", "write", "engine.rrd and metrics.json in {out} were left as they were"),
+    "while it is flushed to disk": ("os", "fsync", "engine.rrd and metrics.json in {out} were left as they were"),
+    "between the two renames": ("os", "rename", "engine.rrd and metrics.json in {out} were written before that"),
+}
+
+
+@pytest.mark.parametrize("signame, code, word", [("SIGINT", 130, "interrupted"), ("SIGTERM", 143, "terminated")])
+@pytest.mark.parametrize("moment", MOMENTS)
+def test_a_signal_at_any_moment_leaves_a_whole_pair_and_one_line(signame, code, word, moment, tmp_path):
+    where, attribute, said = MOMENTS[moment]
+    before = previous_pair(tmp_path)
+    result = subprocess.run([sys.executable, "-c", AT_A_MOMENT, signame, where, attribute, str(tmp_path)], cwd=REPO,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == code and result.stderr == f"{word}: {said.format(out=tmp_path)}\n"
+    assert listing(tmp_path) == sorted(PAIR)  # no temporary file left
+    if "written before" in said:
+        metrics = json.loads((tmp_path / "metrics.json").read_text())
+        assert recording_id(tmp_path / "engine.rrd") == metrics["run_id"]
+    else:
+        assert_unchanged(tmp_path, before)
+
+
+def test_ctrl_c_while_numpy_loads_is_one_line(tmp_path):
+    """The signal lands inside `import numpy` (a finder on sys.meta_path sends it), with engine.py run as a script."""
+    code = textwrap.dedent("""
+        import os, runpy, signal, sys
+        class CtrlCOnNumpy:
+            def find_spec(self, name, path=None, target=None):
+                if name == "numpy":
+                    os.kill(os.getpid(), signal.SIGINT)
+        sys.meta_path.insert(0, CtrlCOnNumpy())
+        sys.argv = ["engine.py", "--smoke", "--out", sys.argv[1]]
+        runpy.run_path("engine.py", run_name="__main__")
+    """)
+    result = subprocess.run([sys.executable, "-c", code, str(tmp_path / "out")], cwd=REPO, capture_output=True,
+                            text=True, timeout=60)
+    assert result.returncode == 130 and result.stderr == "interrupted: no file was written\n"
+    assert listing(tmp_path) == []
+
+
+def test_importing_engine_installs_no_handler_and_main_restores_them(tmp_path):
+    code = textwrap.dedent("""
+        import signal, sys
+        before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+        import engine
+        imported = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+        engine.main(["--smoke", "--no-rerun", "--out", sys.argv[1]])
+        after = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+        print(before == imported == after)
+    """)
+    result = subprocess.run([sys.executable, "-c", code, str(tmp_path)], cwd=REPO, capture_output=True, text=True)
+    assert result.stdout.splitlines()[-1] == "True", result.stderr
+
+
+# --- the numbers at the edges ---
+
+
+def test_finite_energies_whose_drift_overflows_are_reported_as_diverged(tmp_path):
+    result = subprocess.run([sys.executable, "-W", "error", str(ENGINE), "--dt", "1.33e154", "--steps", "1",
+                             "--out", str(tmp_path)], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0 and result.stderr == ""  # -W error: a RuntimeWarning would have failed the run
+    metrics = json.loads((tmp_path / "metrics.json").read_text(), parse_constant=lambda c: pytest.fail(c))
+    for name in ("euler", "semi_implicit"):
+        assert metrics["drift"][name]["diverged"] and metrics["drift"][name]["diverged_at_step"] == 1
+    assert "diverged: energy error non-finite from step 1" in result.stdout and "cannot judge" in result.stdout
+
+
+def test_the_verdict_cannot_judge_when_semi_implicit_left_its_band(tmp_path):
+    result = engine("--dt", "2", "--no-rerun", "--out", tmp_path)
+    assert result.returncode == 0 and result.stderr == ""
+    semi = json.loads((tmp_path / "metrics.json").read_text())["drift"]["semi_implicit"]
+    assert not semi["diverged"] and semi["rel_max"] > 1.0
+    assert result.stdout.splitlines()[-3].endswith(f"cannot judge, semi_implicit left its band (rel_max "
+                                                   f"{semi['rel_max']:.3g}; try a smaller --dt)")
+
+
+@pytest.mark.parametrize("system", ["orbit", "spring", "freefall"])
+def test_a_timestep_too_small_to_move_the_state_is_warned_about(system, tmp_path):
+    result = engine("--dt", "1e-320", "--system", system, "--no-rerun", "--out", tmp_path)
+    assert result.returncode == 0
+    assert result.stderr.startswith("engine.py: warning: --dt 1e-320 is too small to move the state")
+    assert len(result.stderr.splitlines()) == 1
+    assert engine("--dt", "1e-3", "--system", system, "--no-rerun", "--out", tmp_path).stderr == ""
+
+
+def test_a_no_rerun_run_beside_an_older_recording_says_so_on_stdout(tmp_path):
+    assert engine("--smoke", "--out", tmp_path).returncode == 0
+    result = engine("--smoke", "--no-rerun", "--seed", "1", "--out", tmp_path)
+    assert result.returncode == 0 and result.stderr == ""
+    notes = [line for line in result.stdout.splitlines() if "engine.rrd" in line]
+    assert notes == [f"note: {tmp_path / 'engine.rrd'} is from an earlier run (this one wrote no recording)"]
+    assert recording_id(tmp_path / "engine.rrd") != json.loads((tmp_path / "metrics.json").read_text())["run_id"]
