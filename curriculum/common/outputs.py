@@ -79,6 +79,19 @@ def _first_missing(path: Path) -> list[Path]:
     return missing[::-1]
 
 
+def _make_folders(path: Path, created: list) -> None:
+    """Create `path` and its missing parents, noting in `created` the ones this call made.
+
+    A folder that another run creates at the same moment is simply used (it is not ours to remove).
+    """
+    for folder in _first_missing(path):
+        try:
+            os.mkdir(folder)
+        except FileExistsError:
+            continue
+        created.append(folder)
+
+
 def _describe(out: Path, error: OSError) -> str:
     """Why `out` cannot be a folder for our files, from the error the OS gave."""
     if error.errno == errno.ENAMETOOLONG:
@@ -119,9 +132,7 @@ def folder_problem(out: Path, names=()) -> str | None:
         return "the output folder is empty; name one"
     created = []
     try:
-        for folder in _first_missing(out):
-            os.mkdir(folder)
-            created.append(folder)
+        _make_folders(out, created)
         probe = out / f".probe-{secrets.token_hex(8)}"
         fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
         os.close(fd)
@@ -172,11 +183,16 @@ def write_run(folder: Path, files: dict) -> None:
     _last_write.update(folder=folder, names=names, state="writing")
     created = []
     try:
-        for path in _first_missing(folder):
-            os.mkdir(path)
-            created.append(path)
-        with _locked(folder) as dir_fd:
-            _replace_together(folder, dir_fd, {name: _as_bytes(data) for name, data in files.items()})
+        for _ in range(10):  # another run's check may remove a folder it had made, between our two steps
+            _make_folders(folder, created)
+            try:
+                with _locked(folder) as dir_fd:
+                    _replace_together(folder, dir_fd, {name: _as_bytes(data) for name, data in files.items()})
+                break
+            except _FolderGone:
+                continue
+        else:
+            raise FileNotFoundError(errno.ENOENT, "the folder keeps disappearing")
     except OSError as error:
         raise OutputError(f"{_describe(folder, error)}; {_kept(folder, names)}") from None
     finally:
@@ -213,6 +229,10 @@ def _kept(folder: Path, names) -> str:
     return f"{' and '.join(names)} in {folder} were left as they were"
 
 
+class _FolderGone(Exception):
+    """The folder vanished between creating it and opening it."""
+
+
 @contextlib.contextmanager
 def _locked(folder: Path, shared: bool = False):
     """Hold flock on the folder's own descriptor: writers take turns, and no lock file is left behind.
@@ -220,7 +240,12 @@ def _locked(folder: Path, shared: bool = False):
     Waiting for the lock can be interrupted (Ctrl-C, SIGTERM). Where flock is not supported
     (some network file systems) the write goes ahead unlocked: each file is still atomic.
     """
-    dir_fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    try:
+        dir_fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    except FileNotFoundError:
+        if shared:
+            raise
+        raise _FolderGone from None
     try:
         try:
             fcntl.flock(dir_fd, fcntl.LOCK_SH if shared else fcntl.LOCK_EX)
