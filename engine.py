@@ -10,6 +10,7 @@ Run it from the repo root:
     python engine.py                       # Kepler orbit, all three integrators, with a recording
     python engine.py --system freefall     # the case where the symplectic advantage vanishes
     python engine.py --smoke --no-rerun    # fixed 600 steps: what CI diffs byte for byte
+    python engine.py --ensemble 1000       # seeds 0..999 stepped together: does the ordering always hold?
 
 Open the recording with `rerun outputs/ch3.3-engine/engine.rrd`.
 """
@@ -38,7 +39,11 @@ except KeyboardInterrupt:
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
 MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
+CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
 PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
+ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
+ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
+SHOWN_MEMBERS = 20  # member paths an ensemble's recording draws: enough to see the spread, few enough to open
 METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '_' and '-'
 
@@ -62,7 +67,8 @@ SYSTEMS = ("orbit", "spring", "freefall")
 
 def dot3(a, b):
     """a . b over the last axis, summed in a fixed order: (3,) gives a number, (N, 3) gives (N,)."""
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+    products = a * b
+    return products[..., 0] + products[..., 1] + products[..., 2]
 
 
 def build_system(name: str, rng: np.random.Generator) -> dict:
@@ -190,26 +196,33 @@ def simulate(step_fn, system: dict, dt: float, steps: int, every: int = 1, progr
     step and always the last; with every=1 that is all of them, (steps + 1, 3), or
     (steps + 1, N, 3) for a batch. energies: the total energy at every step, row 0 the start.
     A state that blows up is carried on as inf/NaN without warnings, and energy_drift()
-    reports the step where that began. progress(done), if given, is called ~20 times.
+    reports the step where that began. progress(done), if given, is called as chunks finish.
     """
     q = np.array(system["q0"], dtype=float)
     v = np.array(system["v0"], dtype=float)
     m, force, energy = system["m"], system["force"], system["energy"]
     check_contract(system, q, v)
-    positions = np.empty((len(kept_steps(steps, every)), *q.shape))
+    kept = kept_steps(steps, every)
+    positions = np.empty((len(kept), *q.shape))
     velocities = np.empty_like(positions)
     energies = np.empty((steps + 1, *q.shape[:-1]))
     positions[0], velocities[0], energies[0] = q, v, energy(q, v)
-    row, report_every = 1, max(steps // 20, 1)
+    # The loop only steps and stores. The referee, energy, is evaluated a chunk of steps at a time:
+    # a chunk of states is a batch like any other (see the contract), so one call does thousands.
+    chunk = min(steps, max(1, CHUNK_VALUES // q.size))
+    q_chunk, v_chunk = np.empty((chunk, *q.shape)), np.empty((chunk, *q.shape))
     with np.errstate(all="ignore"):
-        for i in range(1, steps + 1):
-            q, v = step_fn(q, v, m, force, dt)
-            energies[i] = energy(q, v)
-            if i % every == 0 or i == steps:
-                positions[row], velocities[row] = q, v
-                row += 1
-            if progress and (i % report_every == 0 or i == steps):
-                progress(i)
+        for first in range(1, steps + 1, chunk):
+            count = min(chunk, steps + 1 - first)
+            for j in range(count):
+                q, v = step_fn(q, v, m, force, dt)
+                q_chunk[j], v_chunk[j] = q, v
+            batch = energy(q_chunk[:count].reshape(-1, 3), v_chunk[:count].reshape(-1, 3))
+            energies[first:first + count] = batch.reshape(count, *q.shape[:-1])
+            rows = slice(*np.searchsorted(kept, [first, first + count]))  # kept steps inside this chunk
+            positions[rows], velocities[rows] = q_chunk[kept[rows] - first], v_chunk[kept[rows] - first]
+            if progress:
+                progress(first + count - 1)
     return positions, velocities, energies
 
 
@@ -272,16 +285,87 @@ def did_not_move(positions: np.ndarray, velocities: np.ndarray) -> bool:
     return bool(np.all(np.abs(change) <= np.spacing(np.max(np.abs(start)))))
 
 
+# --- ensembles: many seeds at once ---
+# build_ensemble() stacks N starting states into (N, 3) arrays and simulate() steps them
+# together: the same arithmetic on every row, so each member is bit for bit its own single
+# run, at a fraction of the cost per member. What we keep is what the report needs: every
+# member's energy at every step, but positions only every few steps.
+
+
+def ensemble_every(steps: int, members: int) -> int:
+    """Keep every k-th state so an ensemble's positions stay under ENSEMBLE_KEPT_VALUES numbers."""
+    return max(1, math.ceil((steps + 1) * members * 3 / ENSEMBLE_KEPT_VALUES))
+
+
+def ensemble_bytes(steps: int, members: int) -> int:
+    """Memory one integrator's ensemble holds at its peak: every energy (8 bytes) and whether it is
+    finite (1 byte), the kept positions and velocities, and the recording's error spread over them."""
+    return 9 * (steps + 1) * members + 3 * 8 * ENSEMBLE_KEPT_VALUES
+
+
+def ensemble_drift(energies: np.ndarray) -> dict:
+    """energy_drift() for every member of an ensemble at once; energies is (steps + 1, N).
+
+    Returns arrays of N: rel_final, rel_max (NaN where the member diverged) and diverged; each
+    member's figures are the bits energy_drift() gives for that member alone."""
+    e0 = energies[0]
+    scale = np.where(e0 != 0.0, np.abs(e0), 1.0)
+    with np.errstate(all="ignore"):
+        diverged = ~np.isfinite(energies).all(axis=0)
+        rel_final = np.where(diverged, np.nan, (energies[-1] - e0) / scale)
+        # the worst excursion is above the highest energy or below the lowest: no (steps, N) temporaries,
+        # and the same bits as max |E - E0| because subtracting E0 keeps the order
+        worst = np.maximum(np.max(energies, axis=0) - e0, e0 - np.min(energies, axis=0))
+        rel_max = np.where(diverged, np.nan, worst / scale)
+    return {"rel_final": rel_final, "rel_max": rel_max, "diverged": diverged}
+
+
+def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    """(len(kept), 3): min, median and max over the members of |E - E0| / |E0| at the kept steps."""
+    e0 = energies[0]
+    with np.errstate(all="ignore"):
+        relative = np.abs(energies[kept] - e0) / np.where(e0 != 0.0, np.abs(e0), 1.0)
+    relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
+    return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
+
+
+def ordering_holds(drifts: dict) -> np.ndarray:
+    """Per member: |euler rel_final| > semi_implicit rel_max > rk4 rel_max (False where any diverged)."""
+    euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
+    with np.errstate(invalid="ignore"):
+        return (np.abs(euler["rel_final"]) > semi["rel_max"]) & (semi["rel_max"] > rk4["rel_max"])
+
+
+def spread(values: np.ndarray) -> dict | None:
+    """min, median and max over the members that did not diverge (None if all did)."""
+    finite = values[np.isfinite(values)]
+    if len(finite) == 0:
+        return None
+    return {"min": float(finite.min()), "median": float(np.median(finite)), "max": float(finite.max())}
+
+
+def summarize_ensemble(energies: np.ndarray, positions: np.ndarray, kept: np.ndarray, for_recording: bool) -> dict:
+    """What an ensemble run keeps of one integrator: each member's drift and, for the recording,
+    the first members' paths and the spread of all the members' error curves."""
+    summary = ensemble_drift(energies)
+    if for_recording:
+        summary["paths"] = positions[:, :SHOWN_MEMBERS].copy()
+        summary["error_spread"] = error_spread(energies, kept)
+    return summary
+
+
 # --- record ---
 # All of Rerun lives here, imported only when a recording is asked for, so the physics
 # and the tests run without it. The file opens on three things: the paths in 3D, and
 # beside them one plot where the integrators' energy errors overlay (raw energy in a tab).
 
 
-def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str) -> tuple[bytes, str | None]:
+def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str,
+           ensemble: dict | None = None) -> tuple[bytes, str | None]:
     """The .rrd bytes of runs {name: (positions, velocities, energies)}, and a note if thinned.
 
     `kept` are the step numbers of the kept states; energies are logged at those steps too.
+    `ensemble`, from an --ensemble run, adds a row below: members' paths and their error spread.
     The recording is built in memory and saved by write_run() beside metrics.json, whose
     run_id it carries as its recording id: a full disk is then our error to report, not a
     hang inside Rerun's file sink.
@@ -300,6 +384,11 @@ def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str) -> tuple
             ),
         ),
     )
+    if ensemble:
+        blueprint = rrb.Blueprint(rrb.Vertical(blueprint.root_container, rrb.Horizontal(
+            rrb.Spatial3DView(origin="ensemble_paths", name=f"the first {SHOWN_MEMBERS} members' paths"),
+            rrb.TimeSeriesView(origin="ensemble_error", name="log10 |E - E0| / |E0|: min, median, max over members"),
+        )))
     recording = rr.RecordingStream(APPLICATION_ID, recording_id=run_id)
     in_memory = recording.memory_recording()
     try:
@@ -310,6 +399,9 @@ def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str) -> tuple
             log_path(recording, name, positions)
             log_energy(recording, name, kept, energies[kept])
             log_relative_error(recording, name, kept, energies[kept], energies[0])
+        for name, summary in (ensemble or {}).items():
+            log_member_paths(recording, name, summary["paths"])
+            log_error_spread(recording, name, kept, summary["error_spread"])
     finally:
         data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
     if len(kept) == steps + 1:
@@ -353,6 +445,31 @@ def log_relative_error(recording, name, steps, energies, e0):
         shown = np.isfinite(relative) & (relative > 0.0)
         recording.send_columns(f"rel_error/{name}", indexes=[rr.TimeColumn("step", sequence=steps[shown])],
                                columns=rr.Scalars.columns(scalars=np.log10(relative[shown])))
+
+
+def log_member_paths(recording, name, paths):
+    """The ensemble's 3D view: the first members' paths, one strip each, in the integrator's colour."""
+    import rerun as rr
+
+    strips = [member[(np.abs(member) < np.finfo(np.float32).max).all(axis=1)] for member in paths.swapaxes(0, 1)]
+    recording.log(f"ensemble_paths/{name}", rr.LineStrips3D(strips, colors=[COLORS[name]]), static=True)
+
+
+def log_error_spread(recording, name, steps, spread):
+    """Three curves per integrator, min, median and max of log10 |E - E0| / |E0| over all members.
+
+    Their gap is how much the seed matters: wide for the orbit, round-off for the linear spring.
+    """
+    import rerun as rr
+
+    with np.errstate(all="ignore"):
+        for column, (which, width) in enumerate((("min", 0.5), ("median", 2.0), ("max", 0.5))):
+            entity = f"ensemble_error/{name}/{which}"
+            recording.log(entity, rr.SeriesLines(colors=[COLORS[name]], names=[f"{name} {which}"], widths=[width]),
+                          static=True)
+            shown = np.isfinite(spread[:, column]) & (spread[:, column] > 0.0)
+            recording.send_columns(entity, indexes=[rr.TimeColumn("step", sequence=steps[shown])],
+                                   columns=rr.Scalars.columns(scalars=np.log10(spread[shown, column])))
 
 
 # --- report ---
@@ -404,6 +521,44 @@ def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
         print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: {verdict}")
 
 
+def ensemble_block(system_name: str, seeds: range, ensemble: dict) -> dict:
+    """The `ensemble` block of metrics.json (rounded there like drift): each drift's spread, the ordering count."""
+    block = {"seeds": [seeds[0], seeds[-1]], "members": len(seeds), "drift": {
+        name: {"rel_final": spread(s["rel_final"]), "rel_max": spread(s["rel_max"]),
+               "diverged": int(np.count_nonzero(s["diverged"]))} for name, s in ensemble.items()}}
+    if set(ensemble) == set(INTEGRATORS) and system_name in ("orbit", "spring"):
+        holds = ordering_holds(ensemble)
+        diverged = np.any([s["diverged"] for s in ensemble.values()], axis=0)  # such a member cannot be judged
+        block["ordering_holds"] = int(np.count_nonzero(holds))
+        block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(~holds & ~diverged).tolist()]
+        block["ordering_not_judged"] = int(np.count_nonzero(diverged))
+    return block
+
+
+def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
+    """The ensemble's table: per integrator, min/median/max over the members of both drifts."""
+    print(f"\nensemble of seeds {seeds[0]}..{seeds[-1]}: {len(seeds):,} members stepped together")
+    if system_name == "spring":
+        print("(the spring is linear: a seed only scales the amplitude, so every member's relative drift\n"
+              " is the same up to round-off; the spread below is not a finding)")
+    print(f"{'':<14}{'rel_final':^36}  {'rel_max':^36}".rstrip())
+    print(f"{'integrator':<14}" + f"{'min':>12}{'median':>12}{'max':>12}  " * 2 + f"{'diverged':>8}")
+    for name, d in block["drift"].items():
+        cells = [("".join(f"{x[key]:>12.3e}" for key in ("min", "median", "max")) if x else f"{'-':>36}")
+                 for x in (d["rel_final"], d["rel_max"])]  # '-': every member diverged
+        print(f"{name:<14}{cells[0]}  {cells[1]}  {d['diverged']:>8,}")
+    if "ordering_holds" in block:
+        print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: holds for {block['ordering_holds']:,}"
+              f" of {len(seeds):,} seeds")
+        if block["ordering_not_judged"]:
+            print(f"  {block['ordering_not_judged']:,} diverged under some integrator and cannot be judged"
+                  " (try a smaller --dt)")
+        fails = block["ordering_fails_for_seeds"]
+        if fails:
+            more = f" and {len(fails) - 10:,} more" if len(fails) > 10 else ""
+            print(f"  it fails for seed {', '.join(map(str, fails[:10]))}{more}: rerun one with --seed to look")
+
+
 # --- the run: flags and main ---
 
 
@@ -421,6 +576,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help=f"steps per integrator, 1 to {MAX_STEPS:,} (default 2000)")
     parser.add_argument("--smoke", action="store_true",
                         help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
+    parser.add_argument("--ensemble", type=int_in(1, None, "--ensemble"), default=None, metavar="N",
+                        help="also run seeds --seed .. --seed+N-1 together and report the spread (default: off)")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
     parser.add_argument("--out", type=folder_arg, default=Path("outputs/ch3.3-engine"),
@@ -433,6 +590,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     problem = folder_problem(args.out, [METRICS_FILE, RECORDING_FILE] if args.rerun else [METRICS_FILE])
     if problem:
         parser.error(f"argument --out: {problem}")
+    steps = SMOKE_STEPS if args.smoke else args.steps
+    if args.ensemble and ensemble_bytes(steps, args.ensemble) > ENSEMBLE_MEMORY:
+        parser.error(f"argument --ensemble: {args.ensemble:,} members x {steps:,} steps needs about"
+                     f" {ensemble_bytes(steps, args.ensemble) / 1e9:.1f} GB, over the {ENSEMBLE_MEMORY / 1e9:g} GB"
+                     " this run may use: fewer members or fewer --steps")
     problem = args.rerun and rerun_problem()
     if problem:
         parser.error(problem)
@@ -463,24 +625,42 @@ def main(argv=None) -> int:
     banner("ch3.3-engine", device=args.device)
     steps = SMOKE_STEPS if args.smoke else args.steps
     names = list(INTEGRATORS) if args.integrator == "all" else [args.integrator]
-    system = build_system(args.system, np.random.default_rng(args.seed))  # PCG64: the only randomness
+    # PCG64 seeded per member is the only randomness; member 0 of an ensemble is the single run
+    seeds = range(args.seed, args.seed + (args.ensemble or 1))
+    if args.ensemble:
+        system = build_ensemble(args.system, seeds)
+    else:
+        system = build_system(args.system, np.random.default_rng(args.seed))
     every = math.ceil((steps + 1) / MAX_POINTS_PER_SERIES)  # states kept for the recording; energy: every step
-    show_progress = not args.smoke and steps * len(names) >= PROGRESS_FROM
+    if args.ensemble:
+        every = max(every, ensemble_every(steps, args.ensemble))
+    # a member's step in a batch costs about a hundredth of a single run's, hence the 100
+    show_progress = not args.smoke and steps * len(names) * len(seeds) >= PROGRESS_FROM * (100 if args.ensemble else 1)
     metrics_path, recording_path = args.out / METRICS_FILE, args.out / RECORDING_FILE
-    runs, drifts = {}, {}
+    runs, drifts, ensemble = {}, {}, {}
     for name in names:
         progress = progress_printer(name, steps) if show_progress else None
-        runs[name] = positions, _, energies = simulate(INTEGRATORS[name], system, args.dt, steps, every, progress)
+        positions, velocities, energies = simulate(INTEGRATORS[name], system, args.dt, steps, every, progress)
+        if args.ensemble:
+            ensemble[name] = summarize_ensemble(energies, positions, kept_steps(steps, every), args.rerun)
+            positions, velocities, energies = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
+        runs[name] = positions, velocities, energies
         drifts[name] = energy_drift(energies)
         drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
     metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts)
+    if args.ensemble:
+        block = ensemble_block(args.system, seeds, ensemble)
+        # every float to 12 decimals, as in drift
+        metrics["ensemble"] = json.loads(json.dumps(block), parse_float=lambda text: round(float(text), 12))
     metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
     files, note = {}, None
     if args.rerun:
-        files[RECORDING_FILE], note = record(args.system, runs, kept_steps(steps, every), metrics["run_id"])
+        files[RECORDING_FILE], note = record(args.system, runs, kept_steps(steps, every), metrics["run_id"], ensemble)
     files[METRICS_FILE] = metrics_text(metrics)
     write_run(args.out, files)  # all on disk before any replaces its old file; metrics.json last
     print_report(args.system, args.dt, steps, drifts)
+    if args.ensemble:
+        print_ensemble_report(args.system, seeds, block)
     if all(did_not_move(positions, velocities) for positions, velocities, _ in runs.values()):
         print(f"engine.py: warning: --dt {args.dt} is too small to move the state: after {steps:,} steps no position "
               "or velocity changed by even one rounding step, so the drifts above measure nothing", file=sys.stderr)

@@ -1,7 +1,7 @@
 """Exercise 1, predict then run: which integrator sends the orbit's energy climbing without bound?
 
     python -m exercises.ex1_runaway                    # the question, and nothing else
-    python -m exercises.ex1_runaway --predict euler    # commit, then see the evidence
+    python -m exercises.ex1_runaway --predict NAME     # commit (euler, semi_implicit or rk4), then see
 
 The evidence is the chapter's orbit (seed 0, dt 0.01) run 1x, 2x, 4x and 8x as long as the
 chapter's 2000 steps. A runaway error grows with the horizon; a bounded one does not.
@@ -9,11 +9,16 @@ chapter's 2000 steps. A runaway error grows with the horizon; a bounded one does
 
 import argparse
 import sys
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a file (python exercises/ex1_runaway.py): make the repo importable
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
 import engine
-from exercises.predict import ask, explain
+from curriculum.common.cli import OneLineParser
+from exercises.predict import OneOf, ask, explain, verdict
 
 CHOICES = list(engine.INTEGRATORS)
 HORIZONS = [1, 2, 4, 8]  # multiples of the chapter's run
@@ -43,13 +48,10 @@ def runaway(table: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="exercises.ex1_runaway", description=__doc__,
+    parser = OneLineParser(prog="exercises.ex1_runaway", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    args = ask(parser,
-               "Which integrator sends the Kepler orbit's total energy climbing without bound?",
-               "Choices: " + ", ".join(CHOICES) + "  (explicit Euler, semi-implicit Euler, RK4)", argv)
-    if args.predict not in CHOICES:
-        parser.exit(2, f"exercises.ex1_runaway: error: --predict must be one of {', '.join(CHOICES)}\n")
+    prediction = ask(parser, "Which integrator sends the Kepler orbit's total energy climbing without bound?",
+                     OneOf(CHOICES), argv)
 
     table = measure()
     print(f"orbit, seed 0, dt {DT}: worst relative energy error |E - E0| / |E0| as the run gets longer")
@@ -58,7 +60,7 @@ def main(argv=None) -> int:
         print(f"{name:<15}" + "".join(f"{worst:>20.3e}" for _, worst in rows))
     answer = runaway(table)
     print()
-    print(("Right: " if args.predict == answer else f"Not quite: you said {args.predict}, but ") + f"it is {answer}.")
+    verdict(prediction == answer, f"it is {answer}", prediction)
 
     euler, semi, rk4 = table["euler"], table["semi_implicit"], table["rk4"]
     rk4_side = "always below E0" if all(final < 0 for final, _ in rk4) else "on one side of E0"

@@ -1,19 +1,19 @@
-"""Exercise 2: build them yourself. Your file: edit the two TODOs below.
+"""Exercise 2: build them yourself. This is your file: fill in the two TODOs below.
 
 Explicit Euler is handed to you whole. Turn it into semi-implicit Euler (MuJoCo's default)
 and into RK4, changing exactly what the chapter says changes. Then check your work:
 
     python -m exercises.check_ex2
 
-Stuck? exercises/HINTS.md asks the questions that lead there. The reference solution is in
-exercises/solutions/ex2_integrators.py: try without it first.
+Everything else in exercises/ is support. Stuck? exercises/HINTS.md asks the questions that
+lead there. The reference solution is in exercises/solutions/: open it after you have passed.
 """
 
 
 def euler_step(q, v, m, force, dt):
     """Explicit Euler: the position moves with the OLD velocity. Given, as your starting point."""
     a = force(q, v) / m
-    return q + v * dt, v + a * dt
+    return q + dt * v, v + dt * a
 
 
 def semi_implicit_step(q, v, m, force, dt):

@@ -73,6 +73,7 @@ def test_help_states_the_step_limit():
     assert result.returncode == 0 and "10,000,000" in result.stdout
 
 
+@pytest.mark.slow
 def test_long_run_shows_progress_on_stderr_and_smoke_stays_quiet(tmp_path):
     long = run_engine("--integrator", "euler", "--steps", "300000", "--no-rerun", "--out", tmp_path / "long")
     assert long.returncode == 0 and "100% of 300,000 steps" in long.stderr and "euler" in long.stderr

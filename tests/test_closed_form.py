@@ -67,6 +67,7 @@ def test_rk4_is_exact_on_freefall_to_round_off():
         assert np.max(np.abs(trajectory - exact)) < 64 * np.finfo(float).eps * scale * math.sqrt(steps)
 
 
+@pytest.mark.slow
 def test_semi_implicit_energy_band_is_flat_over_a_million_steps():
     """Symplectic: the worst excursion after 10^4 steps is the worst after 10^6 (about 159,000
     orbits later), to 1 part in 10^6, while explicit Euler's keeps growing."""

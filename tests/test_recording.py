@@ -87,6 +87,7 @@ def test_blueprint_puts_the_paths_beside_one_overlaid_error_plot(orbit_run):
     assert len(tabs) == 1, "the two plots share one slot as tabs, the error plot in front"
 
 
+@pytest.mark.slow
 def test_long_runs_are_decimated_in_the_recording_but_not_in_the_metrics(tmp_path, capsys):
     steps = 250_000
     assert engine.main(["--integrator", "euler", "--steps", str(steps), "--out", str(tmp_path)]) == 0

@@ -63,15 +63,19 @@ def output_folder_problem(out: Path) -> str | None:
 
 
 def progress_printer(label: str, total: int, stream=None):
-    """A callback progress(done) that redraws one line: `  label  45% of 1,000,000 steps`.
+    """A callback progress(done) that redraws one line, `  label  45% of 1,000,000 steps`, every 5% at most.
 
     On a terminal the line is redrawn in place; otherwise (a log file, a pipe) each report is its
     own line, so the log stays readable. The last report ends the line.
     """
     stream = stream or sys.stderr
     in_place = stream.isatty()
+    shown = [-1.0]  # the fraction last printed: a report comes every 5% at most, and at the end
 
     def show(done: int) -> None:
+        if done < total and done / total < shown[0] + 0.05:
+            return
+        shown[0] = done / total
         text = f"  {label:<14}{done / total:>5.0%} of {total:,} steps"
         if in_place:
             print("\r" + text, end="\n" if done >= total else "", file=stream, flush=True)

@@ -1,0 +1,14 @@
+"""Right, written another way: other summation orders and dt on the other side."""
+
+
+def semi_implicit_step(q, v, m, force, dt):
+    v_next = dt * force(q, v) / m + v
+    return dt * v_next + q, v_next
+
+
+def rk4_step(q, v, m, force, dt):
+    k1q, k1v = v, force(q, v) / m
+    k2q, k2v = v + k1v * (dt / 2), force(q + k1q * (dt / 2), v + k1v * (dt / 2)) / m
+    k3q, k3v = v + k2v * (dt / 2), force(q + k2q * (dt / 2), v + k2v * (dt / 2)) / m
+    k4q, k4v = v + k3v * dt, force(q + k3q * dt, v + k3v * dt) / m
+    return q + (k1q + 2 * (k2q + k3q) + k4q) * dt / 6, (k4v + 2 * k3v + 2 * k2v + k1v) * dt / 6 + v

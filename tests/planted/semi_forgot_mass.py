@@ -1,0 +1,8 @@
+"""Planted mistake: the force used as the acceleration."""
+
+from _right import rk4_step  # noqa: F401  (the right one, from the helper beside this file)
+
+
+def semi_implicit_step(q, v, m, force, dt):
+    v_next = v + force(q, v) * dt
+    return q + v_next * dt, v_next

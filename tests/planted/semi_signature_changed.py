@@ -1,0 +1,8 @@
+"""Planted mistake: force and m swapped in the signature."""
+
+from _right import rk4_step  # noqa: F401  (the right one, from the helper beside this file)
+
+
+def semi_implicit_step(q, v, force, m, dt):
+    v_next = v + force(q, v) / m * dt
+    return q + v_next * dt, v_next

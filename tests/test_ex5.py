@@ -1,0 +1,164 @@
+"""Exercise 5: the blob's area against closed-form determinants worked out here in exact fractions."""
+
+import math
+import re
+import subprocess
+import sys
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+import engine
+from conftest import REPO
+from exercises import ex5_phase_blob as ex5
+
+
+def run_ex5(*args, cwd=REPO):
+    return subprocess.run([sys.executable, "-m", "exercises.ex5_phase_blob", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=120, env={"PYTHONPATH": str(REPO), "PATH": ""})
+
+
+def exact_det(name, h):
+    """One step's matrix on (x, v/omega) in exact rational arithmetic, from the methods' definitions."""
+    h = Fraction(h)
+    identity, rotation = ((1, 0), (0, 1)), ((0, 1), (-1, 0))  # (x, v/omega)' = omega * rotation
+
+    def mul(a, b):
+        return tuple(tuple(sum(a[i][k] * b[k][j] for k in range(2)) for j in range(2)) for i in range(2))
+
+    def add(a, b, scale=1):
+        return tuple(tuple(a[i][j] + scale * b[i][j] for j in range(2)) for i in range(2))
+
+    if name == "euler":
+        step = add(identity, rotation, h)
+    elif name == "semi_implicit":  # v first: v' = v - h x; then x' = x + h v'
+        kick, drift = ((1, 0), (-h, 1)), ((1, h), (0, 1))
+        step = mul(drift, kick)
+    else:  # RK4 on a linear system is the Taylor polynomial of degree 4 of exp(h * rotation)
+        step, term = identity, identity
+        for n in range(1, 5):
+            term = mul(term, rotation)
+            step = add(step, term, h ** n / math.factorial(n))
+    return step[0][0] * step[1][1] - step[0][1] * step[1][0]
+
+
+@pytest.mark.parametrize("name", list(engine.INTEGRATORS))
+@pytest.mark.parametrize("h", [0.02, 0.2, 2.1])
+def test_closed_form_determinants_are_the_methods_own(name, h):
+    minus_one, _ = ex5.one_step_determinant(name, h)
+    exact = exact_det(name, h) - 1
+    assert minus_one == pytest.approx(float(exact), rel=1e-12, abs=0.0)
+
+
+def test_the_engine_steps_are_the_matrices_the_closed_form_assumes():
+    """Step the unit states through the engine's own integrators: the 2x2 matrix's determinant."""
+    m, force, k, omega = ex5.spring()
+    dt = 0.1
+    for name, step in engine.INTEGRATORS.items():
+        q = np.zeros((2, 3))
+        v = np.zeros((2, 3))
+        q[0, 0], v[1, 0] = 1.0, omega  # (x, v/omega) = (1, 0) and (0, 1)
+        q1, v1 = step(q, v, m, force, dt)
+        columns = np.array([[q1[0, 0], q1[1, 0]], [v1[0, 0] / omega, v1[1, 0] / omega]])
+        det = columns[0, 0] * columns[1, 1] - columns[0, 1] * columns[1, 0]
+        assert det - 1 == pytest.approx(ex5.one_step_determinant(name, omega * dt)[0], rel=1e-9, abs=1e-15)
+
+
+@pytest.fixture(scope="module")
+def chapter_table():
+    return ex5.measure(ex5.DT, ex5.STEPS)
+
+
+@pytest.mark.parametrize("dt", [ex5.DT, ex5.COARSE_DT])
+def test_measured_area_follows_the_closed_form_every_step(dt, chapter_table):
+    table = chapter_table if dt == ex5.DT else ex5.measure(dt, ex5.STEPS)
+    for name, row in table.items():
+        assert row["worst_gap"] < 1e-12, name
+    answers = {name: ex5.what_the_area_does(row["measured"]) for name, row in table.items()}
+    assert answers == {"euler": "grows", "semi_implicit": "stays", "rk4": "shrinks"}
+
+
+def test_rk4_shrink_at_the_chapter_dt_is_far_above_the_round_off_floor(chapter_table):
+    table = chapter_table
+    rk4, floor = table["rk4"]["measured"], abs(table["semi_implicit"]["measured"])
+    assert rk4 == pytest.approx(-1.7777e-9, rel=1e-3)  # 2000 * (0.02^6 / 72) = 1.78e-9
+    assert floor < 1e-13 and abs(rk4) > 1e4 * floor
+
+
+def test_past_the_limit_area_holds_but_energy_runs_away():
+    areas, x, v = ex5.run_blob("semi_implicit", ex5.PAST_LIMIT_DT, ex5.PAST_LIMIT_STEPS)
+    assert ex5.one_step_determinant("semi_implicit", 2.0 * ex5.PAST_LIMIT_DT)[1] < -2.0  # |trace| > 2
+    assert abs(areas[-1] / areas[0] - 1) < 1e-6
+    assert np.max(ex5.energy(x[-1], v[-1]) / ex5.energy(x[0], v[0])) > 1e5
+
+
+def test_nearby_energy_is_kept_and_true_energy_stays_in_its_band(chapter_table):
+    table = chapter_table
+    true_band, nearby_band = ex5.modified_energy_drift(table["semi_implicit"]["x"], table["semi_implicit"]["v"], ex5.DT)
+    h = 2.0 * ex5.DT
+    assert nearby_band < 1e-13
+    assert 0.5 * h < true_band <= (1 + h / 2) / (1 - h / 2) - 1
+    # and for explicit Euler the same quadratic is not kept at all
+    _, euler_nearby = ex5.modified_energy_drift(table["euler"]["x"], table["euler"]["v"], ex5.DT)
+    assert euler_nearby > 0.5
+
+
+def test_bare_question_shows_no_figure_and_writes_nothing(tmp_path):
+    result = run_ex5(cwd=tmp_path)
+    assert result.returncode == 2
+    assert "grows, stays, shrinks" in result.stdout
+    text = result.stdout + result.stderr
+    assert not re.search(r"\d\.\d|e-\d|\d{3}", text.replace("2000", "").replace("dt 0.01", "")), text
+    for spoiler in ("shrink", "determinant", "symplectic", "exactly"):
+        assert spoiler not in text.replace("shrinks", ""), spoiler
+    assert list(tmp_path.iterdir()) == []
+    help_text = run_ex5("--help").stdout + (ex5.__doc__ or "")
+    for spoiler in ("stays the same", "area is kept", "preserv", "determinant", "1.78", "2.22"):
+        assert spoiler not in help_text
+
+
+@pytest.mark.parametrize("bad", ["euler=grows", "euler=big,semi_implicit=stays,rk4=shrinks", "eulr",
+                                 "euler=grows,euler=grows,rk4=stays"])
+def test_unreadable_prediction_gets_one_line(bad, tmp_path):
+    result = run_ex5("--predict", bad, cwd=tmp_path)
+    assert result.returncode == 2 and result.stdout == ""
+    assert len(result.stderr.splitlines()) == 1 and "Traceback" not in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unwritable_recording_path_gets_one_line_before_measuring(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    result = run_ex5("--predict", "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(blocker / "x.rrd"))
+    assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1
+    assert "not a writable directory" in result.stderr
+
+
+def test_graded_both_ways(capsys):
+    assert ex5.main(["--predict", "Euler = grows,", "semi-implicit: stays, rk4=shrinks", "--no-rerun"]) == 0
+    assert "Right: euler grows, semi_implicit stays, rk4 shrinks." in capsys.readouterr().out
+    assert ex5.main(["--predict", "euler=grows,semi_implicit=stays,rk4=stays", "--no-rerun"]) == 0
+    wrong = capsys.readouterr().out
+    assert "Not quite: you said euler=grows, semi_implicit=stays, rk4=stays;" in wrong and "rk4 shrinks" in wrong
+
+
+@pytest.mark.slow
+def test_as_a_student_runs_it_with_the_recording(tmp_path):
+    """A fresh interpreter, the recording written and read back with Rerun's own reader."""
+    rrd = tmp_path / "blob.rrd"
+    right = run_ex5("--predict", "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(rrd))
+    assert right.returncode == 0 and right.stderr == "", right.stderr
+    assert "Right: euler grows, semi_implicit stays, rk4 shrinks." in right.stdout
+
+    rerun_chunk = pytest.importorskip("rerun.chunk")
+    reader = rerun_chunk.RrdReader(rrd)
+    (recording,) = reader.recordings()
+    steps = {}
+    for chunk in reader.stream(store=recording).to_chunks():
+        batch = chunk.to_record_batch()
+        if chunk.entity_path.startswith("/phase/") and "step" in batch.schema.names:
+            steps.setdefault(chunk.entity_path, []).extend(batch.column("step").to_pylist())
+    assert set(steps) == {f"/phase/{name}" for name in engine.INTEGRATORS}
+    for frames in steps.values():
+        assert sorted(frames) == list(range(0, ex5.STEPS + 1, ex5.RECORD_EVERY))
