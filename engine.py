@@ -311,11 +311,11 @@ def ensemble_drift(energies: np.ndarray) -> dict:
     e0 = energies[0]
     scale = np.where(e0 != 0.0, np.abs(e0), 1.0)
     with np.errstate(all="ignore"):
-        diverged = ~np.isfinite(energies).all(axis=0)
-        rel_final = np.where(diverged, np.nan, (energies[-1] - e0) / scale)
         # the worst excursion is above the highest energy or below the lowest: no (steps, N) temporaries,
         # and the same bits as max |E - E0| because subtracting E0 keeps the order
         worst = np.maximum(np.max(energies, axis=0) - e0, e0 - np.min(energies, axis=0))
+        diverged = ~np.isfinite(worst / scale)  # a non-finite energy, or finite ones whose error overflows
+        rel_final = np.where(diverged, np.nan, (energies[-1] - e0) / scale)
         rel_max = np.where(diverged, np.nan, worst / scale)
     return {"rel_final": rel_final, "rel_max": rel_max, "diverged": diverged}
 
@@ -325,8 +325,9 @@ def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
     e0 = energies[0]
     with np.errstate(all="ignore"):
         relative = np.abs(energies[kept] - e0) / np.where(e0 != 0.0, np.abs(e0), 1.0)
-    relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
-    return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
+        relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
+        # (a median of two errors near the float limit overflows to inf, which the plot leaves out)
+        return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
 
 
 def ordering_holds(drifts: dict) -> np.ndarray:
@@ -338,10 +339,15 @@ def ordering_holds(drifts: dict) -> np.ndarray:
 
 def spread(values: np.ndarray) -> dict | None:
     """min, median and max over the members that did not diverge (None if all did)."""
-    finite = values[np.isfinite(values)]
+    finite = np.sort(values[np.isfinite(values)])
     if len(finite) == 0:
         return None
-    return {"min": float(finite.min()), "median": float(np.median(finite)), "max": float(finite.max())}
+    middle = finite[(len(finite) - 1) // 2: len(finite) // 2 + 1]
+    with np.errstate(over="ignore"):
+        median = np.median(middle)
+    if not np.isfinite(median):  # two middle values near the float limit: their sum overflows, their halves do not
+        median = middle[0] / 2 + middle[-1] / 2
+    return {"min": float(finite[0]), "median": float(median), "max": float(finite[-1])}
 
 
 def summarize_ensemble(energies: np.ndarray, positions: np.ndarray, kept: np.ndarray, for_recording: bool) -> dict:

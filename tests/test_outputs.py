@@ -663,6 +663,27 @@ def test_finite_energies_whose_drift_overflows_are_reported_as_diverged(tmp_path
     assert "diverged: energy error non-finite from step 1" in result.stdout and "cannot judge" in result.stdout
 
 
+@pytest.mark.parametrize("members", [3, 4])  # an odd and an even count: the median of two values can overflow
+def test_an_ensemble_whose_drifts_overflow_counts_them_as_diverged(members, tmp_path):
+    result = subprocess.run([sys.executable, "-W", "error", str(ENGINE), "--ensemble", str(members), "--dt", "1.33e154",
+                             "--steps", "1", "--out", str(tmp_path)], cwd=REPO, capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0 and result.stderr == ""
+    block = json.loads((tmp_path / "metrics.json").read_text(), parse_constant=lambda c: pytest.fail(c))["ensemble"]
+    single = engine_drift_of_each_seed(members)
+    assert {name: drift["diverged"] for name, drift in block["drift"].items()} == \
+           {name: sum(flags) for name, flags in single.items()}
+    assert single["euler"][0]  # seed 0's euler: finite energies whose relative error overflows
+
+
+def engine_drift_of_each_seed(members: int) -> dict:
+    """{integrator: [diverged per seed]} from energy_drift() of single runs: what the ensemble must agree with."""
+    import engine as chapter
+
+    return {name: [chapter.energy_drift(chapter.run("orbit", name, dt=1.33e154, steps=1, seed=seed)[2])["diverged"]
+                   for seed in range(members)] for name in chapter.INTEGRATORS}
+
+
 def test_the_verdict_cannot_judge_when_semi_implicit_left_its_band(tmp_path):
     result = engine("--dt", "2", "--no-rerun", "--out", tmp_path)
     assert result.returncode == 0 and result.stderr == ""
