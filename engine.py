@@ -3,7 +3,8 @@
 A state (q, v, m), a force law and three integrators (explicit Euler, semi-implicit
 Euler, RK4), run on three conservative systems. Energy is the referee: a perfect
 integrator would hold it constant, so how far each one drifts, and in which shape,
-is what we measure.
+is what we measure. A damped spring shows the next rung: its referee is its exact
+solution, and a fourth step, implicit in the damping as MuJoCo's Euler is, joins in.
 
 Run it from the repo root:
 
@@ -11,6 +12,7 @@ Run it from the repo root:
     python engine.py --system freefall     # the case where the symplectic advantage vanishes
     python engine.py --smoke --no-rerun    # fixed 600 steps: what CI diffs byte for byte
     python engine.py --ensemble 1000       # seeds 0..999 stepped together: does the ordering always hold?
+    python engine.py --system damped_spring --damping 300   # stiff damping: the implicit rung
 
 Open the recording with `rerun outputs/ch3.3-engine/engine.rrd`.
 """
@@ -21,6 +23,7 @@ import sys
 
 try:  # loading takes a moment (numpy most of it): a Ctrl-C meanwhile ends in one line, as it does later
     import argparse
+    import functools
     import json
     import math
     import time
@@ -44,6 +47,7 @@ PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to std
 ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
 ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
 SHOWN_MEMBERS = 20  # member paths an ensemble's recording draws: enough to see the spread, few enough to open
+BOUNDED_SLACK = 1e-3  # a steady oscillation's sampled peaks differ by less than this between halves
 METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '_' and '-'
 
@@ -62,7 +66,9 @@ APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '
 # libm's pow; both round differently on different CPUs. So the physics squares, adds and
 # cubes with plain arithmetic (dot3, r * r * r), which IEEE rounds the same everywhere.
 
-SYSTEMS = ("orbit", "spring", "freefall")
+SYSTEMS = ("orbit", "spring", "freefall")  # conservative: energy is the referee
+DAMPED_SYSTEMS = ("damped_spring",)  # dissipative: the closed-form solution is the referee
+DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (300 is the stiff case)
 
 
 def dot3(a, b):
@@ -71,11 +77,12 @@ def dot3(a, b):
     return products[..., 0] + products[..., 1] + products[..., 2]
 
 
-def build_system(name: str, rng: np.random.Generator) -> dict:
-    """Return {name, q0, v0, m, force, energy} for one of the three conservative systems.
+def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) -> dict:
+    """Return {name, q0, v0, m, force, energy} for one of the systems.
 
     The seed jitters one initial condition per system (orbit speed, spring stretch,
     launch speed), so --seed matters while the ordering of the drifts does not change.
+    The damped spring also declares dforce_dv, dissipation and exact (see there).
     """
     if name == "orbit":
         # A unit mass around a fixed attractor at the origin, inverse-square pull, GM = mu = 1.
@@ -118,9 +125,62 @@ def build_system(name: str, rng: np.random.Generator) -> dict:
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + m * g * q[..., 2]  # kinetic + height
 
+    elif name == "damped_spring":
+        # The spring again, with a damper pulling against the velocity: force -k q - b v.
+        # Energy now drains away, so the referee is the closed-form solution instead, and the
+        # energy lost must match the damper's work, the time integral of b |v|^2.
+        k, m, b = 4.0, 1.0, float(damping)
+        q0 = np.array([1.0 + rng.uniform(-0.1, 0.1), 0.0, 0.0])
+        v0 = np.zeros(3)
+
+        def force(q, v):
+            return -k * q - b * v  # spring plus damper, added in MuJoCo's order
+
+        def energy(q, v):
+            return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring: what the damper drains
+
+        def dissipation(q, v):
+            return b * dot3(v, v)  # the power the damper takes out, one number per body
+
+        def exact(q0, v0, t):  # the truth from any start, so a batch's rows each get their own
+            return damped_oscillator(q0, v0, k, m, b, t)
+
+        # What a velocity-dependent force declares for implicit_step: d force / d v, here -b
+        # times the identity (MuJoCo's qDeriv). Conservative systems have none.
+        return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy,
+                "dforce_dv": -b, "dissipation": dissipation, "exact": exact, "k": k, "b": b}
+
     else:
-        raise ValueError(f"unknown system {name!r}; choose one of {', '.join(SYSTEMS)}")
+        raise ValueError(f"unknown system {name!r}; choose one of {', '.join(SYSTEMS + DAMPED_SYSTEMS)}")
     return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy}
+
+
+def damped_oscillator(q0, v0, k: float, m: float, b: float, t):
+    """The exact positions of m q'' = -k q - b q' from (q0, v0) at the times t: shape t.shape + q0.shape.
+
+    q(t) = A(t) q0 + B(t) v0, A and B the motions that start from (1, 0) and (0, 1). With
+    g = b/2m and w0 = sqrt(k/m): under-damped (g < w0) they oscillate at wd = sqrt(w0^2 - g^2)
+    inside e^(-gt); critically damped (g = w0) they are (1 + gt) e^(-gt) and t e^(-gt);
+    over-damped (g > w0) they mix the two decays r1, r2 = -g +- sqrt(g^2 - w0^2).
+    """
+    g, w0 = b / (2.0 * m), math.sqrt(k / m)
+
+    def basis(t):  # A(t), B(t) at one time, with math's exp/cos/sin: numpy picks SIMD versions
+        fade = math.exp(-g * t)  # by CPU, whose last bits differ, and this truth goes into metrics.json
+        if g < w0:
+            wd = math.sqrt(w0 * w0 - g * g)
+            return fade * (math.cos(wd * t) + g / wd * math.sin(wd * t)), fade * math.sin(wd * t) / wd
+        if g == w0:
+            return fade * (1.0 + g * t), t * fade
+        r2 = -g - math.sqrt(g * g - w0 * w0)
+        r1 = w0 * w0 / r2  # the slow root from r1 r2 = w0^2: -g + sqrt(...) would cancel away its digits
+        return ((r1 * math.exp(r2 * t) - r2 * math.exp(r1 * t)) / (r1 - r2),
+                (math.exp(r1 * t) - math.exp(r2 * t)) / (r1 - r2))
+
+    times = np.asarray(t, dtype=float)
+    ab = np.array([basis(time) for time in times.ravel().tolist()]).reshape(times.shape + (2,))
+    one_per_row = times.shape + (1,) * np.ndim(q0)  # broadcast each time over a body's (or a batch's) q0
+    return ab[..., 0].reshape(one_per_row) * q0 + ab[..., 1].reshape(one_per_row) * v0
 
 
 def build_ensemble(name: str, seeds) -> dict:
@@ -183,7 +243,36 @@ def rk4_step(q, v, m, force, dt):
 
 
 INTEGRATORS = {"euler": euler_step, "semi_implicit": semi_implicit_step, "rk4": rk4_step}
-COLORS = {"euler": [217, 76, 64], "semi_implicit": [76, 175, 80], "rk4": [64, 115, 217]}
+COLORS = {"euler": [217, 76, 64], "semi_implicit": [76, 175, 80], "rk4": [64, 115, 217], "implicit": [155, 89, 182]}
+
+
+# The next rung, for systems whose force depends on the velocity (a damper): it needs one
+# more thing from the system, the force's derivative dforce_dv, so it is offered only there.
+
+
+def implicit_step(q, v, m, force, dt, dforce_dv):
+    """Semi-implicit Euler with the velocity-dependent force taken at the NEW velocity.
+
+    Solves m (v_new - v) / dt = force(q, v) + dforce_dv (v_new - v) for v_new, then q += dt * v_new.
+    With a linear damper that is the force at (q_old, v_new): implicit in the damping, explicit
+    in the spring. It is MuJoCo's Euler on a joint with damping, and its implicitfast (M - h qDeriv).
+    Order 1; 1 force evaluation per step; with dforce_dv = 0 it is semi_implicit_step exactly.
+    Bounded for any damping, but not for any stiffness: it needs dt sqrt(k/m) < sqrt(4 + 2 dt b/m).
+    """
+    # MuJoCo factorizes m - dt * qDeriv and multiplies by the inverse of its diagonal, so we do
+    # too and match it to the bit (its mjINT_IMPLICIT divides instead: last-bit differences).
+    inverse_mass = 1.0 / (m - dt * dforce_dv)
+    a = force(q, v) * inverse_mass
+    v_next = v + dt * a
+    q_next = q + dt * v_next  # the new velocity moves the position, as in semi_implicit_step
+    return q_next, v_next
+
+
+def integrators_for(system: dict) -> dict:
+    """The chapter's three, plus implicit_step where the system declares dforce_dv."""
+    if "dforce_dv" not in system:
+        return dict(INTEGRATORS)
+    return {**INTEGRATORS, "implicit": functools.partial(implicit_step, dforce_dv=system["dforce_dv"])}
 
 
 # --- simulate and measure ---
@@ -250,7 +339,7 @@ def check_contract(system: dict, q, v) -> None:
 def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0, every: int = 1):
     """build_system + simulate, as the exercises and tests call it: (positions, velocities, energies)."""
     system = build_system(system_name, np.random.default_rng(seed))
-    return simulate(INTEGRATORS[integrator], system, dt, steps, every)
+    return simulate(integrators_for(system)[integrator], system, dt, steps, every)
 
 
 def energy_drift(energies: np.ndarray) -> dict:
@@ -358,6 +447,45 @@ def summarize_ensemble(energies: np.ndarray, positions: np.ndarray, kept: np.nda
         summary["paths"] = positions[:, :SHOWN_MEMBERS].copy()
         summary["error_spread"] = error_spread(energies, kept)
     return summary
+
+
+def against_exact(system: dict, positions, velocities, energies, kept, dt: float) -> dict:
+    """A damped run (one body) against its closed-form solution: what the report prints for it.
+
+    err_max, err_final: the largest and the last distance |q - q_exact| over the kept states.
+    bounded: finite, and the second half of the run swings no wider than the first (largest |q|,
+    give or take BOUNDED_SLACK for where the samples fall on a steady oscillation).
+    energy_lost against damper_work: E0 - E(t) against the integral of b |v|^2 up to the same t,
+    by composite Simpson over the kept states (order 4, so it does not hide RK4's own order 4);
+    work_mismatch = (energy_lost - damper_work) / E0 shrinks like dt^order when dt halves.
+    """
+    if not np.isfinite(energies).all():  # the energy squares q and v: finite energy, finite everything
+        return {"err_max": None, "err_final": None, "bounded": False, "energy_lost": None,
+                "damper_work": None, "work_mismatch": None}
+    gap = positions - system["exact"](system["q0"], system["v0"], kept * dt)
+    distance = np.sqrt(dot3(gap, gap))
+    swing = np.sqrt(dot3(positions, positions))
+    half = len(swing) // 2
+    bounded = swing[half:].max() <= swing[:half + 1].max() * (1.0 + BOUNDED_SLACK)
+    spacing = kept[1:] - kept[:-1]
+    uniform = len(kept) - 1 if (spacing == spacing[0]).all() else len(kept) - 2  # thinned: drop the short tail
+    work = simpson(system["dissipation"](positions[: uniform + 1], velocities[: uniform + 1]), spacing[0] * dt)
+    lost = float(energies[0] - energies[kept[uniform]])
+    return {"err_max": float(distance.max()), "err_final": float(distance[-1]), "bounded": bool(bounded),
+            "energy_lost": lost, "damper_work": work, "work_mismatch": (lost - work) / float(energies[0])}
+
+
+def simpson(values, h: float) -> float:
+    """Composite Simpson's rule over equally spaced samples; an odd count of intervals ends with the 3/8 rule."""
+    f = [float(value) for value in values]  # math.fsum: exactly rounded, the same on every CPU
+    n = len(f) - 1
+    if n < 3:  # too few for Simpson: the trapezoid
+        return h * (0.5 * f[0] + math.fsum(f[1:n]) + 0.5 * f[n]) if n else 0.0
+    head = n if n % 2 == 0 else n - 3  # even part by Simpson 1-4-2-4-...-1, the rest by 3/8
+    total = h / 3.0 * (f[0] + 4.0 * math.fsum(f[1:head:2]) + 2.0 * math.fsum(f[2:head:2]) + f[head])
+    if head < n:
+        total += 3.0 * h / 8.0 * (f[n - 3] + 3.0 * f[n - 2] + 3.0 * f[n - 1] + f[n])
+    return total
 
 
 # --- record ---
@@ -481,12 +609,21 @@ def log_error_spread(recording, name, steps, spread):
 # --- report ---
 
 
-def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: dict) -> dict:
-    """The metrics.json payload: no wall-clock, nothing machine-dependent."""
-    # 12 decimals, not fewer: RK4's drift is ~1e-11 and rounding it to zero would erase it.
-    rounded = {name: {key: round(value, 12) if isinstance(value, float) else value for key, value in d.items()}
-               for name, d in drifts.items()}
-    return {"system": system_name, "dt": dt, "steps": steps, "seed": seed, "drift": rounded}
+def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: dict,
+                  damping: float | None = None, solution: dict | None = None) -> dict:
+    """The metrics.json payload: no wall-clock, nothing machine-dependent.
+
+    A damped system adds its damping and "solution": each integrator against the closed form.
+    """
+
+    def rounded(block):  # 12 decimals, not fewer: RK4's drift is ~1e-11 and rounding it to zero would erase it
+        return {name: {key: round(value, 12) if isinstance(value, float) else value for key, value in d.items()}
+                for name, d in block.items()}
+
+    metrics = {"system": system_name, "dt": dt, "steps": steps, "seed": seed, "drift": rounded(drifts)}
+    if solution is not None:
+        metrics.update(damping=damping, solution=rounded(solution))
+    return metrics
 
 
 def metrics_text(metrics: dict) -> str:
@@ -565,6 +702,26 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
             print(f"  it fails for seed {', '.join(map(str, fails[:10]))}{more}: rerun one with --seed to look")
 
 
+def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solution: dict) -> None:
+    """The damped spring's table: distance from the closed form, boundedness, the energy audit."""
+    k, m, b = system["k"], system["m"], system["b"]
+    ratio = b / (2.0 * math.sqrt(k * m))
+    regime = "under-damped" if ratio < 1.0 else "critically damped" if ratio == 1.0 else "over-damped"
+    print(f"integrated {system['name']} (k {k:g}, m {m:g}, b {b:g}: {regime}) for {steps} steps of {dt} s"
+          f" -> {steps * dt:.2f} s of sim time")
+    print(f"per step: damping dt b/m = {dt * b / m:.4g}, stiffness dt sqrt(k/m) = {dt * math.sqrt(k / m):.4g}"
+          " (docs/damping.md maps where each integrator stays bounded)")
+    print(f"{'integrator':<14}{'max |q-exact|':>14}{'final':>12}{'bounded':>9}{'E lost':>10}"
+          f"{'damper work':>13}{'mismatch/E0':>13}")
+    for name, d in solution.items():
+        if drifts[name]["diverged"]:
+            print(f"{name:<14}  diverged: energy non-finite from step {drifts[name]['diverged_at_step']:,}")
+        else:
+            print(f"{name:<14}{d['err_max']:>14.4e}{d['err_final']:>12.4e}{'yes' if d['bounded'] else 'NO':>9}"
+                  f"{cell(d['energy_lost'], 10)}{cell(d['damper_work'], 13)}{d['work_mismatch']:>+13.4e}")
+    print("truth: the closed-form solution; damper work: the integral of b |v|^2, by composite Simpson")
+
+
 # --- the run: flags and main ---
 
 
@@ -572,10 +729,14 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser = OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seed", type=int_in(0, None, "--seed"), default=0,
                         help="seeds the one jittered initial condition per system (default 0)")
-    parser.add_argument("--system", choices=SYSTEMS, default="orbit",
-                        help="which conservative system to integrate (default orbit)")
-    parser.add_argument("--integrator", choices=["all", *INTEGRATORS], default="all",
-                        help="'all' runs the three-way comparison, which is the point (default all)")
+    parser.add_argument("--system", choices=SYSTEMS + DAMPED_SYSTEMS, default="orbit",
+                        help="which system to integrate; damped_spring is the one that is not conservative"
+                             " (default orbit)")
+    parser.add_argument("--integrator", choices=["all", *INTEGRATORS, "implicit"], default="all",
+                        help="'all' runs the three-way comparison, which is the point; on damped_spring it"
+                             " adds implicit, the damping taken at the new velocity (default all)")
+    parser.add_argument("--damping", type=positive_finite("--damping"), default=None,
+                        help=f"damped_spring's b in N s/m (default {DAMPING}); 300 at dt 0.01 is the stiff case")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
                         help="timestep in sim seconds; raise it and every drift grows (default 0.01)")
     parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=2000,
@@ -593,6 +754,14 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--no-rerun", dest="rerun", action="store_false",
                         help="skip the recording; rerun is then never imported")
     args = parser.parse_args(argv)
+    if args.system not in DAMPED_SYSTEMS and args.damping is not None:
+        parser.error(f"argument --damping: only --system {' or '.join(DAMPED_SYSTEMS)} has a damper")
+    if args.system in DAMPED_SYSTEMS and args.ensemble:
+        parser.error("argument --ensemble: ensembles compare energy drift on the conservative systems"
+                     f" ({', '.join(SYSTEMS)})")
+    if args.system not in DAMPED_SYSTEMS and args.integrator == "implicit":
+        parser.error(f"argument --integrator: implicit needs a velocity-dependent force, so --system"
+                     f" {' or '.join(DAMPED_SYSTEMS)}")
     problem = folder_problem(args.out, [METRICS_FILE, RECORDING_FILE] if args.rerun else [METRICS_FILE])
     if problem:
         parser.error(f"argument --out: {problem}")
@@ -630,30 +799,35 @@ def main(argv=None) -> int:
     started = time.perf_counter()
     banner("ch3.3-engine", device=args.device)
     steps = SMOKE_STEPS if args.smoke else args.steps
-    names = list(INTEGRATORS) if args.integrator == "all" else [args.integrator]
+    damping = DAMPING if args.damping is None else args.damping
     # PCG64 seeded per member is the only randomness; member 0 of an ensemble is the single run
     seeds = range(args.seed, args.seed + (args.ensemble or 1))
     if args.ensemble:
         system = build_ensemble(args.system, seeds)
     else:
-        system = build_system(args.system, np.random.default_rng(args.seed))
+        system = build_system(args.system, np.random.default_rng(args.seed), damping)
+    integrators = integrators_for(system)
+    names = list(integrators) if args.integrator == "all" else [args.integrator]
     every = math.ceil((steps + 1) / MAX_POINTS_PER_SERIES)  # states kept for the recording; energy: every step
     if args.ensemble:
         every = max(every, ensemble_every(steps, args.ensemble))
     # a member's step in a batch costs about a hundredth of a single run's, hence the 100
     show_progress = not args.smoke and steps * len(names) * len(seeds) >= PROGRESS_FROM * (100 if args.ensemble else 1)
     metrics_path, recording_path = args.out / METRICS_FILE, args.out / RECORDING_FILE
-    runs, drifts, ensemble = {}, {}, {}
+    runs, drifts, ensemble, solution = {}, {}, {}, {}
     for name in names:
         progress = progress_printer(name, steps) if show_progress else None
-        positions, velocities, energies = simulate(INTEGRATORS[name], system, args.dt, steps, every, progress)
+        positions, velocities, energies = simulate(integrators[name], system, args.dt, steps, every, progress)
         if args.ensemble:
             ensemble[name] = summarize_ensemble(energies, positions, kept_steps(steps, every), args.rerun)
             positions, velocities, energies = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
         runs[name] = positions, velocities, energies
         drifts[name] = energy_drift(energies)
         drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
-    metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts)
+        if "exact" in system:
+            solution[name] = against_exact(system, positions, velocities, energies, kept_steps(steps, every), args.dt)
+    metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts, damping if solution else None,
+                            solution or None)
     if args.ensemble:
         block = ensemble_block(args.system, seeds, ensemble)
         # every float to 12 decimals, as in drift
@@ -664,7 +838,10 @@ def main(argv=None) -> int:
         files[RECORDING_FILE], note = record(args.system, runs, kept_steps(steps, every), metrics["run_id"], ensemble)
     files[METRICS_FILE] = metrics_text(metrics)
     write_run(args.out, files)  # all on disk before any replaces its old file; metrics.json last
-    print_report(args.system, args.dt, steps, drifts)
+    if solution:
+        print_damped_report(system, args.dt, steps, drifts, solution)
+    else:
+        print_report(args.system, args.dt, steps, drifts)
     if args.ensemble:
         print_ensemble_report(args.system, seeds, block)
     if all(did_not_move(positions, velocities) for positions, velocities, _ in runs.values()):

@@ -77,6 +77,82 @@ def mujoco_trajectory(system_name: str, integrator: str, dt: float = 0.01, steps
     return trajectory
 
 
+# --- the damped spring (issue 12): one slide joint with stiffness and damping ---
+# MuJoCo integrates joint damping implicitly in all but RK4, and when it meets a blown-up state
+# it warns, writes MUJOCO_LOG.TXT into the working folder and resets: so these runs happen in a
+# temporary folder, and a reset shows in the trajectory as a jump back to qpos0 = 0.
+
+DAMPED_INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
+
+
+def damped_xml(integrator: str, dt: float, system: dict, eulerdamp: bool = True) -> str:
+    """eulerdamp=False sets mjDSBL_EULERDAMP: MuJoCo's Euler then takes the damping explicitly."""
+    joint = (f'<joint name="x" type="slide" axis="1 0 0" stiffness="{system["k"]!r}"'
+             f' damping="{system["b"]!r}"/>')
+    flag = "" if eulerdamp else '<flag eulerdamp="disable"/>'
+    return f"""
+<mujoco>
+  <option timestep="{dt!r}" integrator="{integrator}" gravity="0 0 0">{flag}</option>
+  <worldbody><body name="mass">{joint}{BODY.format(m=system["m"])}</body></worldbody>
+</mujoco>"""
+
+
+@contextmanager
+def in_scratch_folder():
+    """Run with a temporary working folder (MuJoCo's MUJOCO_LOG.TXT lands there), then go back."""
+    import os
+    import tempfile
+
+    home = os.getcwd()
+    with tempfile.TemporaryDirectory(prefix="mujoco-") as scratch:
+        os.chdir(scratch)
+        try:
+            yield Path(scratch)
+        finally:
+            os.chdir(home)
+
+
+def damped_trajectory(integrator: str, damping: float, dt: float = 0.01, steps: int = 2000, seed: int = 0,
+                      eulerdamp: bool = True):
+    """(positions, reset_at): mj_step's positions (steps + 1, 3) on the engine's damped spring, and the
+    first step at which MuJoCo found the state blown up and reset it (None if it never did)."""
+    system = engine.build_system("damped_spring", np.random.default_rng(seed), damping)
+    model = mujoco.MjModel.from_xml_string(damped_xml(integrator, dt, system, eulerdamp))
+    data = mujoco.MjData(model)
+    data.qpos[:] = system["q0"][:1]
+    data.qvel[:] = system["v0"][:1]
+    positions = np.zeros((steps + 1, 3))
+    positions[0, 0] = data.qpos[0]
+    reset_at = None
+    with in_scratch_folder():
+        for i in range(1, steps + 1):
+            mujoco.mj_step(model, data)
+            positions[i, 0] = data.qpos[0]
+            if reset_at is None and data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
+                reset_at = i
+    return positions, reset_at
+
+
+def print_damped_parity(dampings=(0.5, 4.0, 300.0)) -> None:
+    """The damped spring's parity figures: ours against MuJoCo's integrators, dt 0.01, 2000 steps."""
+    pairs = (("Euler", "implicit"), ("implicitfast", "implicit"), ("implicit", "implicit"),
+             ("Euler", "semi_implicit"), ("RK4", "rk4"))
+    for b in dampings:
+        system = engine.build_system("damped_spring", np.random.default_rng(0), b)
+        ours = {name: engine.simulate(step, system, 0.01, 2000)[0]
+                for name, step in engine.integrators_for(system).items()}
+        for theirs, mine in pairs:
+            positions, reset_at = damped_trajectory(theirs, b)
+            blown = np.flatnonzero(~np.isfinite(ours[mine][:, 0]))
+            upto = min(len(positions), reset_at or len(positions), blown[0] if blown.size else len(positions))
+            gap = np.abs(ours[mine][:upto] - positions[:upto]).max()  # up to a reset or a blow-up
+            notes = [f"ours non-finite from step {blown[0]:,}; compared before that"] if blown.size else []
+            if reset_at is not None:
+                notes.append(f"MuJoCo blew up and reset at step {reset_at:,}; compared before that")
+            print(f"damped_spring b {b:<4g} mujoco {theirs:<12} vs {mine:<14} max |q_ours - q_mujoco| = {gap:.3g}"
+                  + (f" ({'; '.join(notes)})" if notes else ""))
+
+
 if __name__ == "__main__":
     # python tests/mujoco_models.py: the parity figures the README quotes
     for name in ("spring", "freefall", "orbit"):
@@ -85,3 +161,4 @@ if __name__ == "__main__":
             mine, _, _ = engine.run(name, ours)
             gap = np.abs(mine - mujoco_trajectory(name, theirs)).max()
             print(f"{name:<9} mujoco {theirs:<6} vs {ours:<14} max |q_ours - q_mujoco| = {gap:.3g} over 2000 steps")
+    print_damped_parity()
