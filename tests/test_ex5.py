@@ -140,7 +140,7 @@ def test_graded_both_ways(capsys):
     assert "Right: euler grows, semi_implicit stays, rk4 shrinks." in capsys.readouterr().out
     assert ex5.main(["--predict", "euler=grows,semi_implicit=stays,rk4=stays", "--no-rerun"]) == 0
     wrong = capsys.readouterr().out
-    assert "Not quite: you said euler=grows, semi_implicit=stays, rk4=stays;" in wrong and "rk4 shrinks" in wrong
+    assert "Not quite: you said euler=grows, semi_implicit=stays, rk4=stays, but" in wrong and "rk4 shrinks" in wrong
 
 
 @pytest.mark.slow
