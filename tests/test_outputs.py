@@ -578,6 +578,29 @@ def test_sigterm_during_the_simulation_exits_143_and_keeps_the_previous_pair(tmp
     assert_unchanged(tmp_path, before)
 
 
+def test_a_run_waits_its_turn_for_the_folder_and_sigterm_still_ends_it(tmp_path):
+    """Another writer holds the folder's lock: the run waits (it does not write between that writer's
+    renames), and waiting is no hang: SIGTERM ends it at once with one line."""
+    import fcntl
+
+    before = previous_pair(tmp_path)
+    holder = os.open(tmp_path, os.O_RDONLY | os.O_DIRECTORY)
+    fcntl.flock(holder, fcntl.LOCK_EX)
+    try:
+        run = subprocess.Popen([sys.executable, str(ENGINE), "--smoke", "--no-rerun", "--out", str(tmp_path)],
+                               cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        assert run.stdout.readline().startswith("[ch3.3-engine]")
+        with pytest.raises(subprocess.TimeoutExpired):
+            run.wait(timeout=3)  # a smoke run takes a fraction of that: it is waiting for the lock
+        run.terminate()
+        _, stderr = run.communicate(timeout=30)
+    finally:
+        os.close(holder)
+    assert run.returncode == 143
+    assert stderr == f"terminated: {tmp_path / 'metrics.json'} was left as it was\n"
+    assert_unchanged(tmp_path, before)
+
+
 AT_A_MOMENT = textwrap.dedent("""
     import os, signal, sys
     import engine
