@@ -127,9 +127,7 @@ def folder_problem(out: Path, names=()) -> str | None:
     someone else's sticky folder in the place of one of `names` is refused as well, since the run
     could not replace it.
     """
-    out = Path(out)
-    if str(out) == "":
-        return "the output folder is empty; name one"
+    out = Path(out)  # (an empty --out is refused by folder_arg: Path("") would be the current folder)
     created = []
     try:
         _make_folders(out, created)
