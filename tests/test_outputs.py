@@ -59,6 +59,22 @@ def test_both_files_are_replaced_and_nothing_else_is_left(tmp_path):
     assert read_run(out, PAIR) == {"engine.rrd": b"\x00rrd", "metrics.json": b"{}\n"}
 
 
+def test_where_folders_cannot_be_opened_the_same_steps_go_by_path(tmp_path, monkeypatch):
+    """Windows has no flock and no dir_fd: there the writer names files by path. Same promises, minus the lock."""
+    monkeypatch.setattr(outputs, "BY_FOLDER", False)
+    out = tmp_path / "out"
+    write_run(out / "new", {"engine.rrd": b"rrd", "metrics.json": "{}\n"})
+    assert listing(out / "new") == sorted(PAIR) and read_run(out / "new", PAIR)["engine.rrd"] == b"rrd"
+    before = previous_pair(out)
+    (out / "metrics.json.partial").symlink_to(tmp_path / "victim")
+    (out / "engine.rrd").unlink()
+    (out / "engine.rrd").mkdir()
+    with pytest.raises(OutputError) as failure:
+        write_run(out, {"engine.rrd": b"new", "metrics.json": b"new"})
+    assert failure.value.exit_code == 2 and (out / "metrics.json").read_bytes() == before["metrics.json"]
+    assert listing(out) == sorted([*PAIR, "metrics.json.partial", "new"]) and not (tmp_path / "victim").exists()
+
+
 def test_content_id_is_a_function_of_the_content():
     assert content_id('{"a": 1}\n') == content_id(b'{"a": 1}\n') != content_id('{"a": 2}\n')
     assert len(content_id(b"")) == 16 and int(content_id(b"x"), 16) >= 0

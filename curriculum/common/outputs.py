@@ -16,7 +16,6 @@
 
 import contextlib
 import errno
-import fcntl
 import functools
 import hashlib
 import os
@@ -27,7 +26,17 @@ import sys
 import threading
 from pathlib import Path
 
+try:
+    import fcntl
+except ImportError:  # Windows: no flock; each file is still replaced atomically, by path
+    fcntl = None
+
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# Where the OS lets us (Linux, macOS), every name is opened relative to the folder we locked, so a
+# folder swapped for a symlink mid-write cannot redirect us. Elsewhere the same steps go by path.
+BY_FOLDER = (fcntl is not None and hasattr(os, "O_DIRECTORY")
+             and {os.open, os.rename, os.unlink, os.stat} <= os.supports_dir_fd)
+NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
 
 
 class OutputError(Exception):
@@ -132,7 +141,7 @@ def folder_problem(out: Path, names=()) -> str | None:
     try:
         _make_folders(out, created)
         probe = out / f".probe-{secrets.token_hex(8)}"
-        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600)
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | NOFOLLOW, 0o600)
         os.close(fd)
         os.unlink(probe)
         for name in names:
@@ -151,13 +160,13 @@ def folder_problem(out: Path, names=()) -> str | None:
 def _target_problem(folder: Path, name: str, dir_fd: int | None = None) -> str | None:
     """Why the file `name` in `folder` cannot be replaced by a rename, or None."""
     try:
-        target = os.lstat(name if dir_fd is not None else folder / name, dir_fd=dir_fd)
+        target = os.lstat(**_at(folder, dir_fd, name))
     except FileNotFoundError:
         return None
     if stat.S_ISDIR(target.st_mode):
         return f"{folder / name} is a folder; move it away or choose another output folder"
     here = os.stat(folder if dir_fd is None else dir_fd)
-    euid = os.geteuid()
+    euid = os.geteuid() if hasattr(os, "geteuid") else 0
     if here.st_mode & stat.S_ISVTX and euid != 0 and euid not in (here.st_uid, target.st_uid):
         return (f"{folder / name} belongs to another user in a sticky folder (like /tmp), so it cannot be "
                 "replaced; choose another output folder")
@@ -211,7 +220,7 @@ def read_run(folder: Path, names) -> dict:
     with _locked(Path(folder), shared=True) as dir_fd:
         files = {}
         for name in names:
-            fd = os.open(name, os.O_RDONLY | os.O_CLOEXEC, dir_fd=dir_fd)
+            fd = os.open(**_at(Path(folder), dir_fd, name), flags=os.O_RDONLY | NOFOLLOW)
             with os.fdopen(fd, "rb") as file:
                 files[name] = file.read()
         return files
@@ -236,8 +245,16 @@ def _locked(folder: Path, shared: bool = False):
     """Hold flock on the folder's own descriptor: writers take turns, and no lock file is left behind.
 
     Waiting for the lock can be interrupted (Ctrl-C, SIGTERM). Where flock is not supported
-    (some network file systems) the write goes ahead unlocked: each file is still atomic.
+    (Windows, some network file systems) the write goes ahead unlocked: each file is still atomic.
+    Yields the folder's descriptor, or None where names are used by path (see BY_FOLDER).
     """
+    if not BY_FOLDER:
+        if not os.path.isdir(folder):
+            if shared:
+                raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(folder))
+            raise _FolderGone
+        yield None
+        return
     try:
         dir_fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
     except FileNotFoundError:
@@ -255,18 +272,32 @@ def _locked(folder: Path, shared: bool = False):
         os.close(dir_fd)  # closing the last descriptor releases the lock
 
 
-def _replace_together(folder: Path, dir_fd: int, files: dict) -> None:
+def _at(folder: Path, dir_fd: int | None, name: str) -> dict:
+    """`name` in `folder` as os.open, os.lstat and os.unlink take it: relative to the open folder where we can."""
+    return {"path": name, "dir_fd": dir_fd} if dir_fd is not None else {"path": str(folder / name)}
+
+
+def _rename(folder: Path, dir_fd: int | None, temp: str, name: str) -> None:
+    """Put `temp` in the place of `name`, atomically (on POSIX a rename replaces; on Windows os.replace does)."""
+    if dir_fd is None:
+        os.replace(folder / temp, folder / name)
+    else:
+        os.rename(temp, name, src_dir_fd=dir_fd, dst_dir_fd=dir_fd)
+
+
+def _replace_together(folder: Path, dir_fd: int | None, files: dict) -> None:
     temps = {}
     try:
         for name, data in files.items():
             with _signals_deferred():  # the name is recorded before anything can interrupt us
                 temp = f".{name}.{secrets.token_hex(8)}.tmp"
-                fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o600,
-                             dir_fd=dir_fd)
+                fd = os.open(**_at(folder, dir_fd, temp), flags=os.O_WRONLY | os.O_CREAT | os.O_EXCL | NOFOLLOW,
+                             mode=0o600)
                 temps[name] = temp
             try:
                 _write_all(fd, data)
-                os.fchmod(fd, 0o666 & ~_umask())  # private while written; the usual mode once complete
+                if hasattr(os, "fchmod"):
+                    os.fchmod(fd, 0o666 & ~_umask())  # private while written; the usual mode once complete
                 os.fsync(fd)
             except OSError as error:
                 raise OutputError(f"cannot write {folder / name}: {_says(error)}; "
@@ -281,7 +312,7 @@ def _replace_together(folder: Path, dir_fd: int, files: dict) -> None:
             renamed = []
             for name, temp in temps.items():
                 try:
-                    os.rename(temp, name, src_dir_fd=dir_fd, dst_dir_fd=dir_fd)
+                    _rename(folder, dir_fd, temp, name)
                 except OSError as error:
                     if not renamed:
                         raise
@@ -302,7 +333,7 @@ def _replace_together(folder: Path, dir_fd: int, files: dict) -> None:
         with _signals_deferred():
             for temp in temps.values():
                 with contextlib.suppress(FileNotFoundError):
-                    os.unlink(temp, dir_fd=dir_fd)
+                    os.unlink(**_at(folder, dir_fd, temp))
 
 
 def _write_all(fd: int, data: bytes) -> None:
@@ -311,7 +342,9 @@ def _write_all(fd: int, data: bytes) -> None:
         view = view[os.write(fd, view[: 1 << 24]):]
 
 
-def _sync_folder(dir_fd: int) -> None:
+def _sync_folder(dir_fd: int | None) -> None:
+    if dir_fd is None:
+        return  # by path (Windows): a folder cannot be opened to sync
     try:
         os.fsync(dir_fd)  # the renames themselves reach the disk
     except OSError as error:
