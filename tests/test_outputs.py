@@ -607,7 +607,7 @@ def test_a_run_waits_its_turn_for_the_folder_and_sigterm_still_ends_it(tmp_path)
                                cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         assert run.stdout.readline().startswith("[ch3.3-engine]")
         with pytest.raises(subprocess.TimeoutExpired):
-            run.wait(timeout=3)  # a smoke run takes a fraction of that: it is waiting for the lock
+            run.wait(timeout=1.5)  # a --no-rerun smoke run takes a fraction of that: it is waiting for the lock
         run.terminate()
         _, stderr = run.communicate(timeout=30)
     finally:
@@ -692,23 +692,37 @@ def test_importing_engine_installs_no_handler_and_main_restores_them(tmp_path):
 # --- the numbers at the edges ---
 
 
-def test_finite_energies_whose_drift_overflows_are_reported_as_diverged(tmp_path):
-    result = subprocess.run([sys.executable, "-W", "error", str(ENGINE), "--dt", "1.33e154", "--steps", "1",
-                             "--out", str(tmp_path)], cwd=REPO, capture_output=True, text=True, timeout=120)
-    assert result.returncode == 0 and result.stderr == ""  # -W error: a RuntimeWarning would have failed the run
-    metrics = json.loads((tmp_path / "metrics.json").read_text(), parse_constant=lambda c: pytest.fail(c))
+def run_here(capsys, *args) -> tuple:
+    """engine.main(args) in this process with every warning an error: (exit code, stdout, stderr)."""
+    import warnings
+
+    import engine as chapter
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        code = chapter.main([str(arg) for arg in args])
+    printed = capsys.readouterr()
+    return code, printed.out, printed.err
+
+
+def strict_json(path: Path) -> dict:
+    return json.loads(path.read_text(), parse_constant=lambda constant: pytest.fail(f"{constant} in {path}"))
+
+
+def test_finite_energies_whose_drift_overflows_are_reported_as_diverged(tmp_path, capsys):
+    code, out, err = run_here(capsys, "--dt", "1.33e154", "--steps", "1", "--no-rerun", "--out", tmp_path)
+    assert code == 0 and err == ""  # a RuntimeWarning would have raised
+    metrics = strict_json(tmp_path / "metrics.json")
     for name in ("euler", "semi_implicit"):
         assert metrics["drift"][name]["diverged"] and metrics["drift"][name]["diverged_at_step"] == 1
-    assert "diverged: energy error non-finite from step 1" in result.stdout and "cannot judge" in result.stdout
+    assert "diverged: energy error non-finite from step 1" in out and "cannot judge" in out
 
 
 @pytest.mark.parametrize("members", [3, 4])  # an odd and an even count: the median of two values can overflow
-def test_an_ensemble_whose_drifts_overflow_counts_them_as_diverged(members, tmp_path):
-    result = subprocess.run([sys.executable, "-W", "error", str(ENGINE), "--ensemble", str(members), "--dt", "1.33e154",
-                             "--steps", "1", "--out", str(tmp_path)], cwd=REPO, capture_output=True, text=True,
-                            timeout=120)
-    assert result.returncode == 0 and result.stderr == ""
-    block = json.loads((tmp_path / "metrics.json").read_text(), parse_constant=lambda c: pytest.fail(c))["ensemble"]
+def test_an_ensemble_whose_drifts_overflow_counts_them_as_diverged(members, tmp_path, capsys):
+    code, _, err = run_here(capsys, "--ensemble", members, "--dt", "1.33e154", "--steps", "1", "--out", tmp_path)
+    assert code == 0 and err == ""
+    block = strict_json(tmp_path / "metrics.json")["ensemble"]
     single = engine_drift_of_each_seed(members)
     assert {name: drift["diverged"] for name, drift in block["drift"].items()} == \
            {name: sum(flags) for name, flags in single.items()}
@@ -723,28 +737,27 @@ def engine_drift_of_each_seed(members: int) -> dict:
                    for seed in range(members)] for name in chapter.INTEGRATORS}
 
 
-def test_the_verdict_cannot_judge_when_semi_implicit_left_its_band(tmp_path):
-    result = engine("--dt", "2", "--no-rerun", "--out", tmp_path)
-    assert result.returncode == 0 and result.stderr == ""
-    semi = json.loads((tmp_path / "metrics.json").read_text())["drift"]["semi_implicit"]
+def test_the_verdict_cannot_judge_when_semi_implicit_left_its_band(tmp_path, capsys):
+    code, out, err = run_here(capsys, "--dt", "2", "--no-rerun", "--out", tmp_path)
+    assert code == 0 and err == ""
+    semi = strict_json(tmp_path / "metrics.json")["drift"]["semi_implicit"]
     assert not semi["diverged"] and semi["rel_max"] > 1.0
-    assert result.stdout.splitlines()[-3].endswith(f"cannot judge, semi_implicit left its band (rel_max "
-                                                   f"{semi['rel_max']:.3g}; try a smaller --dt)")
+    assert out.splitlines()[-3].endswith(f"cannot judge, semi_implicit left its band (rel_max {semi['rel_max']:.3g}; "
+                                         "try a smaller --dt)")
 
 
 @pytest.mark.parametrize("system", ["orbit", "spring", "freefall"])
-def test_a_timestep_too_small_to_move_the_state_is_warned_about(system, tmp_path):
-    result = engine("--dt", "1e-320", "--system", system, "--no-rerun", "--out", tmp_path)
-    assert result.returncode == 0
-    assert result.stderr.startswith("engine.py: warning: --dt 1e-320 is too small to move the state")
-    assert len(result.stderr.splitlines()) == 1
-    assert engine("--dt", "1e-3", "--system", system, "--no-rerun", "--out", tmp_path).stderr == ""
+def test_a_timestep_too_small_to_move_the_state_is_warned_about(system, tmp_path, capsys):
+    code, _, err = run_here(capsys, "--dt", "1e-320", "--system", system, "--no-rerun", "--out", tmp_path)
+    assert code == 0
+    assert err.startswith("engine.py: warning: --dt 1e-320 is too small to move the state") and err.count("\n") == 1
+    assert run_here(capsys, "--dt", "1e-3", "--system", system, "--no-rerun", "--out", tmp_path)[2] == ""
 
 
-def test_a_no_rerun_run_beside_an_older_recording_says_so_on_stdout(tmp_path):
-    assert engine("--smoke", "--out", tmp_path).returncode == 0
-    result = engine("--smoke", "--no-rerun", "--seed", "1", "--out", tmp_path)
-    assert result.returncode == 0 and result.stderr == ""
-    notes = [line for line in result.stdout.splitlines() if "engine.rrd" in line]
+def test_a_no_rerun_run_beside_an_older_recording_says_so_on_stdout(tmp_path, capsys):
+    assert run_here(capsys, "--smoke", "--out", tmp_path)[0] == 0
+    code, out, err = run_here(capsys, "--smoke", "--no-rerun", "--seed", "1", "--out", tmp_path)
+    assert code == 0 and err == ""
+    notes = [line for line in out.splitlines() if "engine.rrd" in line]
     assert notes == [f"note: {tmp_path / 'engine.rrd'} is from an earlier run (this one wrote no recording)"]
-    assert recording_id(tmp_path / "engine.rrd") != json.loads((tmp_path / "metrics.json").read_text())["run_id"]
+    assert recording_id(tmp_path / "engine.rrd") != strict_json(tmp_path / "metrics.json")["run_id"]
