@@ -17,26 +17,25 @@ Run it from the repo root:
 Open the recording with `rerun outputs/ch3.3-engine/engine.rrd`.
 """
 
-import argparse
-import functools
-import json
-import math
+from __future__ import annotations  # annotations stay text: np.random loads in main(), not at import
+
 import sys
-import time
-from pathlib import Path
 
-import numpy as np
+try:  # loading takes a moment (numpy most of it): a Ctrl-C meanwhile ends in one line, as it does later
+    import argparse
+    import functools
+    import json
+    import math
+    import time
+    from pathlib import Path
 
-from curriculum.common import (
-    OneLineParser,
-    banner,
-    int_in,
-    output_folder_problem,
-    positive_finite,
-    progress_printer,
-    wall_clock,
-    write_atomic,
-)
+    import numpy as np
+
+    from curriculum.common import OneLineParser, banner, int_in, positive_finite, progress_printer, wall_clock
+    from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
+except KeyboardInterrupt:
+    print("interrupted: no file was written", file=sys.stderr)
+    raise SystemExit(130) from None
 
 # --- settings ---
 
@@ -393,19 +392,28 @@ def energy_drift(energies: np.ndarray) -> dict:
     If the energy overflowed or went NaN, the figures are None and diverged_at_step says when.
     """
     e0 = float(energies[0])
-    finite = np.isfinite(energies)
+    scale = abs(e0) if e0 != 0.0 else 1.0
+    with np.errstate(all="ignore"):  # finite energies can still be so far apart that the error overflows
+        error = np.abs(energies - e0) / scale
+    finite = np.isfinite(error)  # False where the energy is inf/NaN, or where its error is
     if not finite.all():
         return {"e0": e0, "e_final": None, "rel_final": None, "rel_max": None,
                 "diverged": True, "diverged_at_step": int(np.argmin(finite))}
-    scale = abs(e0) if e0 != 0.0 else 1.0
     return {
         "e0": e0,
         "e_final": float(energies[-1]),
         "rel_final": float((energies[-1] - e0) / scale),
-        "rel_max": float(np.max(np.abs(energies - e0)) / scale),
+        "rel_max": float(np.max(error)),
         "diverged": False,
         "diverged_at_step": None,
     }
+
+
+def did_not_move(positions: np.ndarray, velocities: np.ndarray) -> bool:
+    """True if the last state is the first to within one rounding step of the state's size (dt too small)."""
+    start = np.concatenate([positions[0].ravel(), velocities[0].ravel()])
+    change = np.concatenate([(positions[-1] - positions[0]).ravel(), (velocities[-1] - velocities[0]).ravel()])
+    return bool(np.all(np.abs(change) <= np.spacing(np.max(np.abs(start)))))
 
 
 # --- ensembles: many seeds at once ---
@@ -434,11 +442,11 @@ def ensemble_drift(energies: np.ndarray) -> dict:
     e0 = energies[0]
     scale = np.where(e0 != 0.0, np.abs(e0), 1.0)
     with np.errstate(all="ignore"):
-        diverged = ~np.isfinite(energies).all(axis=0)
-        rel_final = np.where(diverged, np.nan, (energies[-1] - e0) / scale)
         # the worst excursion is above the highest energy or below the lowest: no (steps, N) temporaries,
         # and the same bits as max |E - E0| because subtracting E0 keeps the order
         worst = np.maximum(np.max(energies, axis=0) - e0, e0 - np.min(energies, axis=0))
+        diverged = ~np.isfinite(worst / scale)  # a non-finite energy, or finite ones whose error overflows
+        rel_final = np.where(diverged, np.nan, (energies[-1] - e0) / scale)
         rel_max = np.where(diverged, np.nan, worst / scale)
     return {"rel_final": rel_final, "rel_max": rel_max, "diverged": diverged}
 
@@ -448,8 +456,9 @@ def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
     e0 = energies[0]
     with np.errstate(all="ignore"):
         relative = np.abs(energies[kept] - e0) / np.where(e0 != 0.0, np.abs(e0), 1.0)
-    relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
-    return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
+        relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
+        # (a median of two errors near the float limit overflows to inf, which the plot leaves out)
+        return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
 
 
 def ordering_holds(drifts: dict) -> np.ndarray:
@@ -461,10 +470,15 @@ def ordering_holds(drifts: dict) -> np.ndarray:
 
 def spread(values: np.ndarray) -> dict | None:
     """min, median and max over the members that did not diverge (None if all did)."""
-    finite = values[np.isfinite(values)]
+    finite = np.sort(values[np.isfinite(values)])
     if len(finite) == 0:
         return None
-    return {"min": float(finite.min()), "median": float(np.median(finite)), "max": float(finite.max())}
+    middle = finite[(len(finite) - 1) // 2: len(finite) // 2 + 1]
+    with np.errstate(over="ignore"):
+        median = np.median(middle)
+    if not np.isfinite(median):  # two middle values near the float limit: their sum overflows, their halves do not
+        median = middle[0] / 2 + middle[-1] / 2
+    return {"min": float(finite[0]), "median": float(median), "max": float(finite[-1])}
 
 
 def summarize_ensemble(energies: np.ndarray, positions: np.ndarray, kept: np.ndarray, for_recording: bool) -> dict:
@@ -529,34 +543,34 @@ DRAW_LIMIT = 1e30  # Rerun stores float32 (up to 3.4e38): we draw coordinates be
 # for the camera's distance and the labels' lifts; a diverged run's inf and NaN are never drawn
 
 
-def record(path: Path, system: dict, runs: dict, kept: np.ndarray, dt: float,
-           ensemble: dict | None = None) -> str | None:
-    """Write runs {integrator: (positions, velocities, energies)} to `path`. Returns a note if thinned.
+def record(system: dict, runs: dict, kept: np.ndarray, dt: float, run_id: str,
+           ensemble: dict | None = None) -> tuple[bytes, str | None]:
+    """The .rrd bytes of runs {integrator: (positions, velocities, energies)}, and a note if thinned.
 
     `kept` are the step numbers of the kept states; energies are logged at those steps too.
     `ensemble`, from an --ensemble run, adds a row below: members' paths and their error spread.
+    The recording is built in memory and saved by write_run() beside metrics.json, whose
+    run_id it carries as its recording id: a full disk is then our error to report, not a
+    hang inside Rerun's file sink.
     """
     import rerun as rr
     import rerun.blueprint as rrb
 
-    # The stream: created, saved to a partial file, renamed into place once complete.
-    recording = rr.RecordingStream(APPLICATION_ID)
-    partial = path.with_name(path.name + ".partial")
+    # The stream: built in memory under the run's id; write_run() saves it beside metrics.json.
+    recording = rr.RecordingStream(APPLICATION_ID, recording_id=run_id)
+    in_memory = recording.memory_recording()
     try:
-        recording.save(partial)
         views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in RECORDED_VIEWS[system["name"]]]
         below = [log_view(rr, rrb, recording, ensemble, kept) for log_view in ENSEMBLE_VIEWS] if ensemble else []
-        recording.send_blueprint(layout(rrb, views, below, kept))
-        recording.flush()
-        recording.disconnect()
-        partial.replace(path)
+        recording.send_blueprint(layout(rrb, views, below, kept), make_active=False, make_default=True)
     finally:
-        partial.unlink(missing_ok=True)
+        data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
     steps = int(kept[-1])
     if len(kept) == steps + 1:
-        return None
+        return data, None
     every = int(kept[1] - kept[0])
-    return f"recording keeps 1 state in {every} of {steps + 1:,} per integrator, to stay viewable (metrics use all)"
+    return data, f"recording keeps 1 state in {every} of {steps + 1:,} per integrator, to stay viewable " \
+                 "(metrics use all)"
 
 
 def layout(rrb, views, below, kept):
@@ -884,17 +898,20 @@ def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
     print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
     for name, d in drifts.items():
         if d["diverged"]:
-            print(f"{name:<14}{cell(d['e0'], 12)}  diverged: energy non-finite from step {d['diverged_at_step']:,}")
+            step = d["diverged_at_step"]
+            print(f"{name:<14}{cell(d['e0'], 12)}  diverged: energy error non-finite from step {step:,}")
         else:
             print(f"{name:<14}{cell(d['e0'], 12)}{cell(d['e_final'], 14)}"
                   f"{d['rel_final']:>+14.4e}{d['rel_max']:>14.4e}")
     if set(drifts) == set(INTEGRATORS) and system_name in ("orbit", "spring"):
         # The headline, stated as an ordering so it holds for any seed.
         diverged = [name for name, d in drifts.items() if d["diverged"]]
+        euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
         if diverged:
             verdict = f"cannot judge, {' and '.join(diverged)} diverged (try a smaller --dt)"
+        elif semi["rel_max"] > 1.0:  # an energy error past 100%: the bounded one has no band left to hold
+            verdict = f"cannot judge, semi_implicit left its band (rel_max {semi['rel_max']:.3g}; try a smaller --dt)"
         else:
-            euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
             ok = abs(euler["rel_final"]) > semi["rel_max"] > rk4["rel_max"]
             verdict = "as expected" if ok else "UNEXPECTED: investigate"
         print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: {verdict}")
@@ -983,7 +1000,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help="also run seeds --seed .. --seed+N-1 together and report the spread (default: off)")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
-    parser.add_argument("--out", type=Path, default=Path("outputs/ch3.3-engine"),
+    parser.add_argument("--out", type=folder_arg, default=Path("outputs/ch3.3-engine"),
                         help=f"folder for {METRICS_FILE} and {RECORDING_FILE} (default outputs/ch3.3-engine)")
     parser.add_argument("--rerun", dest="rerun", action="store_true", default=True,
                         help=f"write the {RECORDING_FILE} recording (the default)")
@@ -998,7 +1015,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     if args.system not in DAMPED_SYSTEMS and args.integrator == "implicit":
         parser.error(f"argument --integrator: implicit needs a velocity-dependent force, so --system"
                      f" {' or '.join(DAMPED_SYSTEMS)}")
-    problem = output_folder_problem(args.out)
+    problem = folder_problem(args.out, [METRICS_FILE, RECORDING_FILE] if args.rerun else [METRICS_FILE])
     if problem:
         parser.error(f"argument --out: {problem}")
     steps = SMOKE_STEPS if args.smoke else args.steps
@@ -1006,18 +1023,30 @@ def parse_args(argv=None) -> argparse.Namespace:
         parser.error(f"argument --ensemble: {args.ensemble:,} members x {steps:,} steps needs about"
                      f" {ensemble_bytes(steps, args.ensemble) / 1e9:.1f} GB, over the {ENSEMBLE_MEMORY / 1e9:g} GB"
                      " this run may use: fewer members or fewer --steps")
-    if args.rerun and not module_installed("rerun"):
-        parser.error("the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun")
+    problem = args.rerun and rerun_problem()
+    if problem:
+        parser.error(problem)
     return args
 
 
-def module_installed(name: str) -> bool:
-    """True if `import name` would find something; looks without importing."""
-    import importlib.util
+def rerun_problem() -> str | None:
+    """Why the recording cannot be made (rerun-sdk missing or broken), or None. Imports it: needed anyway."""
+    try:
+        import rerun  # noqa: F401
+    except ImportError as error:
+        if error.name == "rerun":
+            return "the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun"
+        why = f"{type(error).__name__}: {error}".splitlines()[0]
+    except Exception as error:  # a broken install fails in many ways
+        why = f"{type(error).__name__}: {error}".splitlines()[0]
+    else:
+        return None
+    if "failed to map segment" in why or "Cannot allocate memory" in why:  # a memory limit (ulimit -v)
+        return f"not enough memory to load rerun-sdk ({why}); raise the memory limit or pass --no-rerun"
+    return f"rerun-sdk is installed but does not import ({why}); reinstall it (`pip install -e .`) or pass --no-rerun"
 
-    return importlib.util.find_spec(name) is not None
 
-
+@one_line_failures("engine.py", memory_hint="fewer --steps need less")  # Ctrl-C 130, SIGTERM 143, OS errors: one line
 def main(argv=None) -> int:
     args = parse_args(argv)
     started = time.perf_counter()
@@ -1038,43 +1067,47 @@ def main(argv=None) -> int:
     # a member's step in a batch costs about a hundredth of a single run's, hence the 100
     show_progress = not args.smoke and steps * len(names) * len(seeds) >= PROGRESS_FROM * (100 if args.ensemble else 1)
     metrics_path, recording_path = args.out / METRICS_FILE, args.out / RECORDING_FILE
-    try:
-        runs, drifts, ensemble, solution = {}, {}, {}, {}
-        for name in names:
-            progress = progress_printer(name, steps) if show_progress else None
-            positions, velocities, energies = simulate(integrators[name], system, args.dt, steps, every, progress)
-            if args.ensemble:
-                ensemble[name] = summarize_ensemble(energies, positions, kept_steps(steps, every), args.rerun)
-                positions, velocities, energies = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
-            runs[name] = positions, velocities, energies
-            drifts[name] = energy_drift(energies)
-            drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
-            if "dissipation" in system:  # a damped system: the closed-form solution is its referee
-                solution[name] = against_exact(system, positions, velocities, energies, kept_steps(steps, every),
-                                               args.dt)
-        args.out.mkdir(parents=True, exist_ok=True)
-        note = record(recording_path, system, runs, kept_steps(steps, every), args.dt, ensemble) if args.rerun else None
-        metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts,
-                                damping if solution else None, solution or None)
+    runs, drifts, ensemble, solution = {}, {}, {}, {}
+    for name in names:
+        progress = progress_printer(name, steps) if show_progress else None
+        positions, velocities, energies = simulate(integrators[name], system, args.dt, steps, every, progress)
         if args.ensemble:
-            block = ensemble_block(args.system, seeds, ensemble)
-            # every float to 12 decimals, as in drift
-            metrics["ensemble"] = json.loads(json.dumps(block), parse_float=lambda text: round(float(text), 12))
-        write_atomic(metrics_path, metrics_text(metrics))
-    except KeyboardInterrupt:
-        print(f"\ninterrupted: {METRICS_FILE} and {RECORDING_FILE} were left as they were", file=sys.stderr)
-        return 130
+            ensemble[name] = summarize_ensemble(energies, positions, kept_steps(steps, every), args.rerun)
+            positions, velocities, energies = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
+        runs[name] = positions, velocities, energies
+        drifts[name] = energy_drift(energies)
+        drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
+        if "dissipation" in system:  # a damped system: the closed-form solution is its referee
+            solution[name] = against_exact(system, positions, velocities, energies, kept_steps(steps, every), args.dt)
+    metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts, damping if solution else None,
+                            solution or None)
+    if args.ensemble:
+        block = ensemble_block(args.system, seeds, ensemble)
+        # every float to 12 decimals, as in drift
+        metrics["ensemble"] = json.loads(json.dumps(block), parse_float=lambda text: round(float(text), 12))
+    metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
+    files, note = {}, None
+    if args.rerun:
+        files[RECORDING_FILE], note = record(system, runs, kept_steps(steps, every), args.dt, metrics["run_id"],
+                                             ensemble)
+    files[METRICS_FILE] = metrics_text(metrics)
+    write_run(args.out, files)  # all on disk before any replaces its old file; metrics.json last
     if solution:
         print_damped_report(system, args.dt, steps, drifts, solution)
     else:
         print_report(args.system, args.dt, steps, drifts)
     if args.ensemble:
         print_ensemble_report(args.system, seeds, block)
+    if all(did_not_move(positions, velocities) for positions, velocities, _ in runs.values()):
+        print(f"engine.py: warning: --dt {args.dt} is too small to move the state: after {steps:,} steps no position "
+              "or velocity changed by even one rounding step, so the drifts above measure nothing", file=sys.stderr)
     print(f"metrics: {metrics_path}")
     if args.rerun:
         print(f"recording: {recording_path} (open it with: rerun {recording_path})")
         if note:
             print(note)
+    elif recording_path.exists():
+        print(f"note: {recording_path} is from an earlier run (this one wrote no recording)")
     wall_clock(started)
     return 0
 

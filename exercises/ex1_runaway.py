@@ -18,7 +18,7 @@ import numpy as np
 
 import engine
 from curriculum.common.cli import OneLineParser
-from exercises.predict import OneOf, ask, explain, verdict
+from exercises.support.predict import OneOf, ask, explain, verdict
 
 CHOICES = list(engine.INTEGRATORS)
 HORIZONS = [1, 2, 4, 8]  # multiples of the chapter's run

@@ -22,8 +22,8 @@ import numpy as np
 
 import engine
 from curriculum.common.cli import OneLineParser
-from exercises.exact import kepler_position, spring_position
-from exercises.predict import PerName, ask, explain
+from exercises.support.exact import kepler_position, spring_position
+from exercises.support.predict import PerName, ask, explain
 
 SIM_SECONDS = 5.0  # not a whole number of periods: at one, some error terms cancel and the ladder zigzags
 # Each ladder starts where its method's error is already small and still far above rounding,

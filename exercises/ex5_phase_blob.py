@@ -11,7 +11,6 @@ writes a recording of the blob moving (outputs/ch3.3-engine/ex5_blob.rrd; --no-r
 
 import argparse
 import math
-import os
 import re
 import sys
 from pathlib import Path
@@ -22,8 +21,8 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex5_phase_blob.
 import numpy as np
 
 import engine
-from curriculum.common import output_folder_problem
-from exercises.predict import OneOf, ask, explain, verdict
+from curriculum.common import output_folder_problem, write_atomic
+from exercises.support.predict import OneOf, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
 STEPS, DT, COARSE_DT = 2000, 0.01, 0.1
@@ -139,7 +138,7 @@ def modified_energy_drift(x: np.ndarray, v: np.ndarray, dt: float) -> tuple[floa
 
 def record(path: Path, table: dict) -> None:
     """The blob's edge in the (x, v_x) plane on the `step` timeline, one colour per integrator,
-    and beside it log10 of the area's change. Written to a .partial file, then renamed.
+    and beside it log10 of the area's change. Built in memory, then written atomically (write_atomic).
 
     Drag the timeline: the three blobs circle the origin together, explicit Euler's swelling
     outwards; on the right each integrator's area change is a line of its own."""
@@ -151,11 +150,10 @@ def record(path: Path, table: dict) -> None:
                           visual_bounds=rrb.VisualBounds2D(x_range=[-2.0, 2.0], y_range=[-3.5, 3.5])),
         rrb.TimeSeriesView(origin="area", name="log10 |area / area0 - 1|"),
     ))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(path.name + ".partial")
     recording = rr.RecordingStream("zero2robot-ch3_3-ex5")
+    in_memory = recording.memory_recording()
     try:
-        recording.save(partial, default_blueprint=blueprint)
+        recording.send_blueprint(blueprint, make_active=False, make_default=True)
         every_k = EDGE_POINTS // RECORD_POINTS
         # Rerun's 2D views point y down; we draw -v_x so that velocity points up, as on paper.
         axes = [[[-1.8, 0.0], [1.8, 0.0]], [[0.0, 3.2], [0.0, -3.2]]]
@@ -172,11 +170,9 @@ def record(path: Path, table: dict) -> None:
             steps = np.flatnonzero(changed)
             recording.send_columns(f"area/{name}", indexes=[rr.TimeColumn("step", sequence=steps)],
                                    columns=rr.Scalars.columns(scalars=np.log10(np.abs(row["ratios"][steps]))))
-        recording.flush()
-        recording.disconnect()
-        os.replace(partial, path)
     finally:
-        partial.unlink(missing_ok=True)
+        data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
+    write_atomic(path, data)
 
 
 # --- the exercise ---

@@ -22,8 +22,8 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex6_stiff_dampi
 import numpy as np
 
 import engine
-from exercises import stability_map
-from exercises.predict import OneOf, ask, explain, verdict
+from exercises.support import stability_map
+from exercises.support.predict import OneOf, ask, explain, verdict
 
 DAMPING, DT, STEPS = 250.0, 0.01, 2000  # b in N s/m; 2000 steps is the chapter's run
 NAMES = ["euler", "semi_implicit", "rk4", "implicit"]

@@ -9,7 +9,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
 import engine  # noqa: E402
-from exercises.exact import freefall_position, kepler_position, spring_position  # noqa: E402
+from exercises.support.exact import freefall_position, kepler_position, spring_position  # noqa: E402
 
 EXACT = {"spring": spring_position, "freefall": freefall_position, "orbit": kepler_position}
 HORIZON = {"spring": 2.0, "freefall": 2.0, "orbit": 2.0 * math.pi}  # sim seconds, fixed while dt shrinks

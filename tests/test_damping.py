@@ -1,7 +1,8 @@
 """The damped spring and the implicit step (issue 12), against independent truth:
 the closed-form solution, the damper's work, the one-step eigenvalues, and MuJoCo 3.10.0's own integrators.
 
-`python tests/mujoco_models.py` prints the parity figures; `python -m exercises.stability_map` the stability table.
+`python tests/mujoco_models.py` prints the parity figures;
+`python -m exercises.support.stability_map` prints the stability table.
 """
 
 import json
@@ -18,7 +19,8 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
 import engine  # noqa: E402
 from conftest import REPO, run_engine  # noqa: E402
-from exercises import ex6_stiff_damping, stability_map  # noqa: E402
+from exercises import ex6_stiff_damping  # noqa: E402
+from exercises.support import stability_map  # noqa: E402
 
 STIFF = 300.0  # b at dt 0.01: dt b/m = 3, the stiff case of the issue
 

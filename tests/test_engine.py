@@ -142,7 +142,7 @@ def test_diverged_run_writes_strict_json_and_names_the_step(tmp_path, capsys):
         assert d["diverged"] is True and d["rel_final"] is None and d["rel_max"] is None, name
         assert isinstance(d["diverged_at_step"], int) and 0 < d["diverged_at_step"] <= 2000
     out = capsys.readouterr()
-    assert "diverged: energy non-finite from step" in out.out and "cannot judge" in out.out
+    assert "diverged: energy error non-finite from step" in out.out and "cannot judge" in out.out
     assert out.err == ""
 
 

@@ -17,7 +17,7 @@ import pytest
 import engine
 from conftest import REPO
 from exercises import check_ex2, ex3_halve_dt, ex4_long_run
-from exercises.predict import Number, OneOf, PerName
+from exercises.support.predict import Number, OneOf, PerName
 
 PLANTED = REPO / "tests" / "planted"
 PRISTINE = REPO / "tests" / "pristine" / "ex2_integrators.py"

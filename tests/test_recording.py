@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import engine
-from exercises import exact as closed_form
+from exercises.support import exact as closed_form
 
 rerun_chunk = pytest.importorskip("rerun.chunk", reason="rerun-sdk is a core dependency; install the project")
 rrb = pytest.importorskip("rerun.blueprint")

@@ -1,6 +1,6 @@
 """The stability map of the damped spring: where each integrator stays bounded.
 
-    python -m exercises.stability_map        # the table in docs/damping.md (about 13 s of CPU time)
+    python -m exercises.support.stability_map        # the table in docs/damping.md (about 13 s of CPU time)
 
 Support for exercise 6 and docs/damping.md, not an exercise: its output answers exercise 6.
 
@@ -19,7 +19,7 @@ import math
 import sys
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a file (python exercises/stability_map.py): make the repo importable
+if __package__ in (None, ""):  # run as a file (python exercises/support/stability_map.py): make the repo importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
@@ -193,7 +193,7 @@ def largest_difference(table) -> float:
 def main(argv=None) -> int:
     import argparse
 
-    argparse.ArgumentParser(prog="exercises.stability_map", description=__doc__,
+    argparse.ArgumentParser(prog="exercises.support.stability_map", description=__doc__,
                             formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
     table = stability_table()
     print(f"Bounded range of the damping c = dt b/m at each stiffness w = dt sqrt(k/m): measured by bisection on"
