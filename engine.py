@@ -55,6 +55,8 @@ APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '
 # --- systems ---
 # A system is the physics: where the body starts (q0, v0), its mass m, the force law
 # force(q, v), and the true total energy(q, v), which a perfect integrator holds constant.
+# Each also knows its exact motion, exact(q0, v0, t): where a body starting at (q0, v0) is
+# at times t, (K,) -> (K, *q0.shape). The recording measures the integrators against it.
 #
 # The contract every system keeps, and simulate() checks: q and v are one body's
 # position and velocity, shape (3,), or a batch of N independent bodies, shape (N, 3),
@@ -78,11 +80,11 @@ def dot3(a, b):
 
 
 def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) -> dict:
-    """Return {name, q0, v0, m, force, energy} for one of the systems.
+    """Return {name, q0, v0, m, force, energy, exact} for one of the systems.
 
     The seed jitters one initial condition per system (orbit speed, spring stretch,
     launch speed), so --seed matters while the ordering of the drifts does not change.
-    The damped spring also declares dforce_dv, dissipation and exact (see there).
+    The damped spring also declares dforce_dv and dissipation (see there).
     """
     if name == "orbit":
         # A unit mass around a fixed attractor at the origin, inverse-square pull, GM = mu = 1.
@@ -98,6 +100,9 @@ def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) - mu * m / np.sqrt(dot3(q, q))  # kinetic + gravitational
 
+        def exact(q0, v0, t):
+            return kepler_orbit(q0, v0, t, mu)
+
     elif name == "spring":
         # A mass on an ideal Hooke spring: pulled straight back, in proportion to the stretch.
         # Undamped, so the amplitude and the energy should stay exactly where they started.
@@ -110,6 +115,10 @@ def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) 
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring
+
+        def exact(q0, v0, t):
+            w, t = np.sqrt(k / m), times_for(t, q0)
+            return q0 * np.cos(w * t) + v0 / w * np.sin(w * t)
 
     elif name == "freefall":
         # A body thrown sideways under constant gravity. Energy is conserved here too, but the
@@ -124,6 +133,10 @@ def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) 
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + m * g * q[..., 2]  # kinetic + height
+
+        def exact(q0, v0, t):
+            t = times_for(t, q0)
+            return q0 + v0 * t + 0.5 * gravity * t * t  # the parabola
 
     elif name == "damped_spring":
         # The spring again, with a damper pulling against the velocity: force -k q - b v.
@@ -152,7 +165,36 @@ def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) 
 
     else:
         raise ValueError(f"unknown system {name!r}; choose one of {', '.join(SYSTEMS + DAMPED_SYSTEMS)}")
-    return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy}
+    return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact}
+
+
+def times_for(t, q0):
+    """Times (K,) shaped to broadcast against states of q0's shape: (K, 1) or (K, 1, 1)."""
+    t = np.asarray(t, dtype=float)
+    return t.reshape(t.shape + (1,) * np.ndim(q0))
+
+
+def kepler_orbit(q0, v0, t, mu):
+    """Exact positions at times t on the bound orbit that starts at (q0, v0), by Kepler's equation.
+
+    With a the semi-major axis and n = sqrt(mu / a^3) the mean motion, the change dE of eccentric
+    anomaly solves  n t = dE - (1 - r0/a) sin dE + (q0.v0) / sqrt(mu a) (1 - cos dE),  and then
+    q(t) = f q0 + g v0 with Lagrange's f = 1 - a/r0 (1 - cos dE) and g = t - (dE - sin dE) / n.
+    """
+    r0 = np.sqrt(dot3(q0, q0))
+    a = 1.0 / (2.0 / r0 - dot3(v0, v0) / mu)  # vis-viva: v^2 = mu (2/r - 1/a)
+    n = np.sqrt(mu / (a * a * a))
+    t = times_for(t, q0)[..., 0] % (2.0 * np.pi / n)  # the orbit repeats every period
+    c, s = 1.0 - r0 / a, dot3(q0, v0) / np.sqrt(mu * a)
+    de = n * t
+    for _ in range(50):  # Newton's method: a handful of rounds reach round-off
+        step = (de - c * np.sin(de) + s * (1.0 - np.cos(de)) - n * t) / (1.0 - c * np.cos(de) + s * np.sin(de))
+        de = de - step
+        if np.all(np.abs(step) < 1e-12):  # the next round would change de by ~1e-24
+            break
+    f = 1.0 - a / r0 * (1.0 - np.cos(de))
+    g = t - (de - np.sin(de)) / n
+    return f[..., None] * q0 + g[..., None] * v0
 
 
 def damped_oscillator(q0, v0, k: float, m: float, b: float, t):
@@ -489,14 +531,21 @@ def simpson(values, h: float) -> float:
 
 
 # --- record ---
-# All of Rerun lives here, imported only when a recording is asked for, so the physics
-# and the tests run without it. The file opens on three things: the paths in 3D, and
-# beside them one plot where the integrators' energy errors overlay (raw energy in a tab).
+# All of Rerun lives here, imported only when a recording is asked for, so the physics and the tests run
+# without it. Each system opens on its own lesson: RECORDED_VIEWS lists, per system, the views it needs,
+# and each log_<view>() logs its data along the `step` timeline and returns that view's layout. A new
+# system or view plugs in with one function and one line in the table.
+
+LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk4": "RK4",
+          "implicit": "implicit (damping)"}
+PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
+DRAW_LIMIT = 1e30  # Rerun stores float32 (up to 3.4e38): we draw coordinates below this, leaving headroom
+# for the camera's distance and the labels' lifts; a diverged run's inf and NaN are never drawn
 
 
-def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str,
+def record(system: dict, runs: dict, kept: np.ndarray, dt: float, run_id: str,
            ensemble: dict | None = None) -> tuple[bytes, str | None]:
-    """The .rrd bytes of runs {name: (positions, velocities, energies)}, and a note if thinned.
+    """The .rrd bytes of runs {integrator: (positions, velocities, energies)}, and a note if thinned.
 
     `kept` are the step numbers of the kept states; energies are logged at those steps too.
     `ensemble`, from an --ensemble run, adds a row below: members' paths and their error spread.
@@ -507,37 +556,16 @@ def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str,
     import rerun as rr
     import rerun.blueprint as rrb
 
-    steps = int(kept[-1])
-    blueprint = rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="paths"),
-            rrb.Tabs(
-                rrb.TimeSeriesView(origin="rel_error", name="log10 |E - E0| / |E0|"),
-                rrb.TimeSeriesView(origin="energy", name="total energy E"),
-                active_tab=0,
-            ),
-        ),
-    )
-    if ensemble:
-        blueprint = rrb.Blueprint(rrb.Vertical(blueprint.root_container, rrb.Horizontal(
-            rrb.Spatial3DView(origin="ensemble_paths", name=f"the first {SHOWN_MEMBERS} members' paths"),
-            rrb.TimeSeriesView(origin="ensemble_error", name="log10 |E - E0| / |E0|: min, median, max over members"),
-        )))
+    # The stream: built in memory under the run's id; write_run() saves it beside metrics.json.
     recording = rr.RecordingStream(APPLICATION_ID, recording_id=run_id)
     in_memory = recording.memory_recording()
     try:
-        recording.send_blueprint(blueprint, make_active=False, make_default=True)
-        if system_name == "orbit":  # the fixed attractor the orbit's ellipse has at one focus
-            recording.log("world/attractor", rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03]), static=True)
-        for name, (positions, _, energies) in runs.items():
-            log_path(recording, name, positions)
-            log_energy(recording, name, kept, energies[kept])
-            log_relative_error(recording, name, kept, energies[kept], energies[0])
-        for name, summary in (ensemble or {}).items():
-            log_member_paths(recording, name, summary["paths"])
-            log_error_spread(recording, name, kept, summary["error_spread"])
+        views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in RECORDED_VIEWS[system["name"]]]
+        below = [log_view(rr, rrb, recording, ensemble, kept) for log_view in ENSEMBLE_VIEWS] if ensemble else []
+        recording.send_blueprint(layout(rrb, views, below, kept), make_active=False, make_default=True)
     finally:
         data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
+    steps = int(kept[-1])
     if len(kept) == steps + 1:
         return data, None
     every = int(kept[1] - kept[0])
@@ -545,65 +573,290 @@ def record(system_name: str, runs: dict, kept: np.ndarray, run_id: str,
                  "(metrics use all)"
 
 
-def log_path(recording, name, positions):
-    """The 3D view: the whole path as one line strip, in the integrator's colour."""
-    import rerun as rr
+def layout(rrb, views, below, kept):
+    """The first view large on the left, the others stacked on the right, `below` in a row underneath;
+    the side panels folded away.
 
-    # Rerun stores float32: a diverged path's inf/NaN, or anything past 3.4e38, cannot be drawn.
-    drawable = (np.abs(positions) < np.finfo(np.float32).max).all(axis=1)
-    line = rr.LineStrips3D([positions[drawable]], colors=[COLORS[name]], labels=[name])
-    recording.log(f"world/{name}", line, static=True)
-
-
-def log_energy(recording, name, steps, energies):
-    """Total energy on the `step` timeline. Euler's 22% climb flattens the others here."""
-    import rerun as rr
-
-    recording.log(f"energy/{name}", rr.SeriesLines(colors=[COLORS[name]], names=[name]), static=True)
-    finite = np.isfinite(energies)
-    recording.send_columns(f"energy/{name}", indexes=[rr.TimeColumn("step", sequence=steps[finite])],
-                           columns=rr.Scalars.columns(scalars=energies[finite]))
-
-
-def log_relative_error(recording, name, steps, energies, e0):
-    """log10 |E - E0| / |E0|: Rerun has no log axis, so we log the exponent.
-
-    Read it as "digits lost": Euler climbs towards 0 (100%), semi-implicit sits in a flat
-    band, RK4 starts near round-off. Steps where the error is exactly zero have no log.
+    The file opens with the time cursor on the last step (play state "following"): every body where its
+    run ended, every plot whole. Pause, then play, and the viewer starts again from step 0.
     """
-    import rerun as rr
+    first, *others = views
+    story = rrb.Horizontal(first, rrb.Vertical(*others), column_shares=[3, 2]) if others else first
+    if below:
+        story = rrb.Vertical(story, rrb.Horizontal(*below))
+    return rrb.Blueprint(
+        story,
+        rrb.BlueprintPanel(state="hidden"),
+        rrb.SelectionPanel(state="hidden"),
+        rrb.TimePanel(state="collapsed", timeline="step", play_state="following",
+                      fps=max(int(kept[-1]) / PLAYBACK_SECONDS, 1.0)),
+    )
 
-    recording.log(f"rel_error/{name}", rr.SeriesLines(colors=[COLORS[name]], names=[name]), static=True)
+
+def drawable(points):
+    """Rows whose every coordinate Rerun can draw (a diverged run's inf and NaN are left out)."""
+    return (np.abs(points) < DRAW_LIMIT).all(axis=-1)
+
+
+def on_steps(rr, steps):
+    return [rr.TimeColumn("step", sequence=steps)]
+
+
+def log_bodies(rr, recording, entity, name, points, kept, label_lift):
+    """One integrator in a spatial view: its whole path as a trail, and a body that travels along it.
+
+    Sizes are in screen points, so a body stays a visible dot and a trail a thin line at any zoom.
+    """
+    shown = drawable(points)
+    colour = [COLORS[name]]
+    trail = rr.LineStrips3D([points[shown]], colors=colour, radii=rr.components.Radius.ui_points(1.0))
+    recording.log(f"{entity}/trail", trail, static=True)
+    body = rr.Points3D.from_fields(colors=colour, radii=rr.components.Radius.ui_points(7.0))
+    recording.log(f"{entity}/body", body, static=True)
+    recording.send_columns(f"{entity}/body", indexes=on_steps(rr, kept[shown]),
+                           columns=rr.Points3D.columns(positions=points[shown]))
+    # The label rides with its body, lifted up or down the screen (+y) by label_lifts() below.
+    lifted = points[shown] + label_lift[shown, None] * [0.0, 1.0, 0.0]
+    recording.log(f"{entity}/label", rr.Points3D.from_fields(colors=colour, radii=[0.0], labels=[LABELS[name]],
+                                                             show_labels=True), static=True)
+    recording.send_columns(f"{entity}/label", indexes=on_steps(rr, kept[shown]),
+                           columns=rr.Points3D.columns(positions=lifted))
+
+
+def label_lifts(paths, gap=0.045):
+    """Per step, how far to lift each integrator's label: by its body's rank in height among the bodies.
+
+    Bodies in one place (they all start together; RK4 and semi-implicit stay close) would stack their
+    labels into one unreadable blot. Ranked this way the labels keep their bodies' order and stay apart.
+    """
+    low, high = extent(paths.values())
+    gap *= float(max(high[0] - low[0], high[1] - low[1]) or 1.0)  # a fraction of what the camera frames
+    heights = np.stack([points[:, 1] for points in paths.values()], axis=1)
+    rank = np.argsort(np.argsort(heights, axis=1, kind="stable"), axis=1)  # 0 = lowest body at that step
+    lifts = (rank - (len(paths) - 1) / 2.0) * gap
+    return {name: lifts[:, i] for i, name in enumerate(paths)}
+
+
+def extent(paths):
+    """The corners (low, high) of the box around every drawable point; a unit box if there are none."""
+    points = np.concatenate([p[drawable(p)] for p in paths])
+    if len(points) == 0:
+        return np.full(3, -1.0), np.full(3, 1.0)
+    return points.min(axis=0), points.max(axis=0)
+
+
+def camera_above(rrb, paths, tilt):
+    """A camera above the plane z = 0 that frames every drawable point of every path.
+
+    tilt 0 looks straight down with +y up the screen (a flat plot); a small tilt shows that it is 3D.
+    """
+    low, high = extent(paths)
+    centre = (low + high) / 2.0
+    distance = 1.2 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)  # a margin for the axis names
+    up = [0.0, 0.0, 1.0] if tilt else [0.0, 1.0, 0.0]
+    return rrb.EyeControls3D(kind="Orbital", look_target=centre.tolist(), eye_up=up,
+                             position=(centre + [0.0, -tilt * distance, distance]).tolist())
+
+
+def log_orbit(rr, rrb, recording, system, runs, kept, dt):
+    """3D, seen from above: each body circles the attractor, Euler's spiralling out, the other two together."""
+    attractor = rr.Points3D([[0.0, 0.0, 0.0]], radii=rr.components.Radius.ui_points(6.0), colors=[[230, 230, 230]],
+                            labels=["attractor"])
+    recording.log("orbit/attractor", attractor, static=True)
+    paths = {name: positions for name, (positions, _, _) in runs.items()}
+    lifts = label_lifts(paths)
+    for name, positions in paths.items():
+        log_bodies(rr, recording, f"orbit/{name}", name, positions, kept, label_lift=lifts[name])
+    return rrb.Spatial3DView(origin="orbit", name="orbit: the paths, from above",
+                             eye_controls=camera_above(rrb, paths.values(), tilt=0.35),
+                             line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
+
+
+def first_start(system):
+    """(q0, v0) of the body the runs are: the system's own, or an ensemble's first member's."""
+    q0, v0 = system["q0"], system["v0"]
+    return (q0[0], v0[0]) if np.ndim(q0) == 2 else (q0, v0)
+
+
+def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
+    """x across, v_x up: a closed curve is an oscillation that keeps its energy; Euler's spirals out."""
+    planes = {name: np.stack([positions[:, 0], velocities[:, 0], np.zeros(len(kept))], axis=1)
+              for name, (positions, velocities, _) in runs.items()}
+    lifts = label_lifts(planes)
+    for name, plane in planes.items():
+        log_bodies(rr, recording, f"phase/{name}", name, plane, kept, label_lift=lifts[name])
+    # The exact motion, wide and grey, a hair below the plane so the integrators' lines lie on top of it.
+    # Its velocity is the exact position's central difference over a microsecond.
+    q0, v0 = first_start(system)
+    t, h = kept * dt, 1e-6
+    x = system["exact"](q0, v0, t)[:, 0]
+    v = (system["exact"](q0, v0, t + h)[:, 0] - system["exact"](q0, v0, t - h)[:, 0]) / (2.0 * h)
+    low, high = extent(planes.values())
+    below = -0.002 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
+    exact = np.stack([x, v, np.full(len(kept), below)], axis=1)
+    recording.log("phase/exact", rr.LineStrips3D([exact[drawable(exact)]], colors=[[120, 120, 120]],
+                                                 radii=rr.components.Radius.ui_points(3.0)), static=True)
+    log_axes(rr, recording, "phase/axes", np.maximum(-low, high)[:2] * 1.1, ("x (m)", "v_x (m/s)"))
+    name = f"{system['name']}: phase plane, x against v_x (grey: the exact motion)"
+    return rrb.Spatial3DView(origin="phase", name=name,
+                             eye_controls=camera_above(rrb, planes.values(), tilt=0.0),
+                             line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
+
+
+def log_axes(rr, recording, entity, reach, names):
+    """Axes through the origin out to +-reach, named at their tips, with ticks at round numbers.
+
+    A 3D view looking straight down stands in for a 2D plot because Rerun's 2D views point y downwards.
+    """
+    grey = [[150, 150, 150]]
+    x, y = float(reach[0]), float(reach[1])
+    lines = rr.LineStrips3D([[[-x, 0, 0], [x, 0, 0]], [[0, -y, 0], [0, y, 0]]], colors=grey,
+                            radii=rr.components.Radius.ui_points(1.0))
+    recording.log(entity, lines, static=True)
+    tips = rr.Points3D([[x, 0, 0], [0, y, 0]], radii=[0.0], colors=[[200, 200, 200]], labels=names, show_labels=True)
+    recording.log(f"{entity}/names", tips, static=True)
+    ticks = []
+    for axis, length in enumerate((x, y)):
+        unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0  # 1 to 9 ticks each way
+        for k in range(-int(length / unit), int(length / unit) + 1):
+            if k:
+                ticks.append([k * unit if axis == 0 else 0.0, k * unit if axis == 1 else 0.0, 0.0])
+    marks = rr.Points3D(ticks, radii=rr.components.Radius.ui_points(3.0), colors=grey,
+                        labels=[f"{t[0] + t[1]:g}" for t in ticks], show_labels=True)
+    recording.log(f"{entity}/ticks", marks, static=True)
+
+
+def log_curves(rr, recording, origin, curves, kept, widths=None):
+    """One line per integrator on the `step` timeline, in its colour. Returns the finite values logged."""
+    logged = []
+    for name, values in curves.items():
+        style = rr.SeriesLines(colors=[COLORS[name]], names=[LABELS[name]], widths=widths and [widths[name]])
+        recording.log(f"{origin}/{name}", style, static=True)
+        shown = np.isfinite(values)
+        recording.send_columns(f"{origin}/{name}", indexes=on_steps(rr, kept[shown]),
+                               columns=rr.Scalars.columns(scalars=values[shown]))
+        logged.append(values[shown])
+    return np.concatenate(logged)
+
+
+def log_level(rr, recording, entity, label, value, kept):
+    """A grey line at `value` across the whole run, to read the curves against."""
+    recording.log(entity, rr.SeriesLines(colors=[[150, 150, 150]], names=[label]), static=True)
+    recording.send_columns(entity, indexes=on_steps(rr, [0, int(kept[-1])]),
+                           columns=rr.Scalars.columns(scalars=[value, value]))
+
+
+def plot(rr, rrb, origin, name, kept, y_range, legend):
+    """A time-series view that opens on the whole run, from step 0 to the last, on a fixed y range."""
+    whole_run = rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seq=0),
+                             end=rrb.TimeRangeBoundary.absolute(seq=int(kept[-1])))
+    return rrb.TimeSeriesView(origin=origin, name=name, axis_x=rrb.TimeAxis(view_range=whole_run),
+                              axis_y=rrb.ScalarAxis(range=y_range), plot_legend=rrb.PlotLegend(corner=legend),
+                              interaction=rrb.PlotInteraction(tooltip_mode="All"))
+
+
+def padded(values, margin=0.05):
+    """(low, high) of the values with a margin, or None (the viewer's own fit) when there are none."""
+    if values.size == 0:
+        return None
+    low, high = float(values.min()), float(values.max())
+    pad = margin * ((high - low) or 1.0)
+    return (low - pad, high + pad)
+
+
+def log10_of(x):
+    """log10 where x > 0, NaN elsewhere (exact zeros, which have no logarithm, are not drawn)."""
     with np.errstate(all="ignore"):
-        relative = np.abs(energies - e0) / (abs(e0) if e0 != 0.0 else 1.0)
-        shown = np.isfinite(relative) & (relative > 0.0)
-        recording.send_columns(f"rel_error/{name}", indexes=[rr.TimeColumn("step", sequence=steps[shown])],
-                               columns=rr.Scalars.columns(scalars=np.log10(relative[shown])))
+        return np.where(x > 0.0, np.log10(np.where(x > 0.0, x, 1.0)), np.nan)
 
 
-def log_member_paths(recording, name, paths):
-    """The ensemble's 3D view: the first members' paths, one strip each, in the integrator's colour."""
-    import rerun as rr
+def log_position_error(rr, rrb, recording, system, runs, kept, dt):
+    """log10 |q - q_exact| in metres: RK4 sits orders of magnitude below semi-implicit Euler."""
+    exact = system["exact"](*first_start(system), kept * dt)
+    curves = {}
+    for name, (positions, _, _) in runs.items():
+        miss = positions - exact
+        with np.errstate(all="ignore"):
+            curves[name] = log10_of(np.sqrt(dot3(miss, miss)))
+    logged = log_curves(rr, recording, "position_error", curves, kept)
+    # log10 = 0: off by 1 m, the size of the orbit (or of the spring's swing) itself. "zero" sorts last.
+    log_level(rr, recording, "position_error/zero", "1 m, the size of the motion", 0.0, kept)
+    return plot(rr, rrb, "position_error", "position error against the exact motion: log10 |q - q_exact| (m)", kept,
+                padded(np.append(logged, 0.0)), "RightBottom")
 
-    strips = [member[(np.abs(member) < np.finfo(np.float32).max).all(axis=1)] for member in paths.swapaxes(0, 1)]
-    recording.log(f"ensemble_paths/{name}", rr.LineStrips3D(strips, colors=[COLORS[name]]), static=True)
+
+def log_energy_error(rr, rrb, recording, system, runs, kept, dt):
+    """log10 |E - E0| / |E0|, digits of energy lost: Euler climbs to 0 (100%), semi-implicit stays in a band."""
+    curves = {}
+    for name, (_, _, energies) in runs.items():
+        e0 = energies[0]
+        with np.errstate(all="ignore"):
+            curves[name] = log10_of(np.abs(energies[kept] - e0) / (abs(e0) or 1.0))
+    logged = log_curves(rr, recording, "energy_error", curves, kept)
+    log_level(rr, recording, "energy_error/zero", "100% of E0", 0.0, kept)  # log10 = 0: all of it
+    return plot(rr, rrb, "energy_error", "energy error: log10 |E - E0| / |E0|", kept, padded(np.append(logged, 0.0)),
+                "RightBottom")
 
 
-def log_error_spread(recording, name, steps, spread):
+def log_energy_change(rr, rrb, recording, system, runs, kept, dt):
+    """(E - E0) / |E0| in percent, sign kept: on freefall the two Eulers miss by the same amount, opposite ways."""
+    curves = {}
+    for name, (_, _, energies) in runs.items():
+        e0 = energies[0]
+        with np.errstate(all="ignore"):
+            curves[name] = (energies[kept] - e0) / (abs(e0) or 1.0) * 100.0
+    logged = log_curves(rr, recording, "energy_change", curves, kept)
+    reach = 1.15 * float(np.abs(logged).max(initial=0.0)) or 1.0
+    return plot(rr, rrb, "energy_change", "energy change (E - E0) / |E0|, %", kept, (-reach, reach), "LeftTop")
+
+
+def log_height(rr, rrb, recording, system, runs, kept, dt):
+    """Height z against the step: the body falls and never comes back, so no error is ever paid back."""
+    curves = {name: positions[:, 2] for name, (positions, _, _) in runs.items()}
+    # The default run's heights end 2 m apart after a 2 km fall: one line to the eye. Drawn widest
+    # first (the viewer draws in name order: euler, rk4, semi_implicit), all three show.
+    widths = {"euler": 7.0, "rk4": 4.0, "semi_implicit": 1.5}
+    logged = log_curves(rr, recording, "height", curves, kept, widths)
+    ends = [heights[-1] for heights in curves.values() if np.isfinite(heights[-1])]
+    apart = f": the curves end {max(ends) - min(ends):.2g} m apart" if len(ends) > 1 else ""
+    return plot(rr, rrb, "height", f"height z (m){apart}", kept, padded(logged), "LeftBottom")
+
+
+def log_member_paths(rr, rrb, recording, ensemble, kept):
+    """An ensemble's 3D view: the first members' paths, one strip each, in the integrator's colour."""
+    for name, summary in ensemble.items():
+        strips = [member[drawable(member)] for member in summary["paths"].swapaxes(0, 1)]
+        lines = rr.LineStrips3D(strips, colors=[COLORS[name]], radii=rr.components.Radius.ui_points(0.75))
+        recording.log(f"ensemble_paths/{name}", lines, static=True)
+    return rrb.Spatial3DView(origin="ensemble_paths", name=f"the first {SHOWN_MEMBERS} members' paths")
+
+
+def log_error_spread(rr, rrb, recording, ensemble, kept):
     """Three curves per integrator, min, median and max of log10 |E - E0| / |E0| over all members.
 
     Their gap is how much the seed matters: wide for the orbit, round-off for the linear spring.
     """
-    import rerun as rr
-
-    with np.errstate(all="ignore"):
+    logged = []
+    for name, summary in ensemble.items():
         for column, (which, width) in enumerate((("min", 0.5), ("median", 2.0), ("max", 0.5))):
-            entity = f"ensemble_error/{name}/{which}"
-            recording.log(entity, rr.SeriesLines(colors=[COLORS[name]], names=[f"{name} {which}"], widths=[width]),
-                          static=True)
-            shown = np.isfinite(spread[:, column]) & (spread[:, column] > 0.0)
-            recording.send_columns(entity, indexes=[rr.TimeColumn("step", sequence=steps[shown])],
-                                   columns=rr.Scalars.columns(scalars=np.log10(spread[shown, column])))
+            curve = log10_of(summary["error_spread"][:, column])
+            style = rr.SeriesLines(colors=[COLORS[name]], names=[f"{LABELS[name]} {which}"], widths=[width])
+            recording.log(f"ensemble_error/{name}/{which}", style, static=True)
+            shown = np.isfinite(curve)
+            recording.send_columns(f"ensemble_error/{name}/{which}", indexes=on_steps(rr, kept[shown]),
+                                   columns=rr.Scalars.columns(scalars=curve[shown]))
+            logged.append(curve[shown])
+    return plot(rr, rrb, "ensemble_error", "log10 |E - E0| / |E0|: min, median, max over members", kept,
+                padded(np.concatenate(logged)), "RightBottom")
+
+
+RECORDED_VIEWS = {  # per system, the views its lesson needs; the first one opens large on the left
+    "orbit": (log_orbit, log_position_error, log_energy_error),
+    "spring": (log_phase_plane, log_energy_error),
+    "freefall": (log_energy_change, log_height),
+    "damped_spring": (log_phase_plane, log_position_error),  # energy drains by design: the exact motion referees
+}
+ENSEMBLE_VIEWS = (log_member_paths, log_error_spread)  # an --ensemble run adds these in a row below
 
 
 # --- report ---
@@ -824,7 +1077,7 @@ def main(argv=None) -> int:
         runs[name] = positions, velocities, energies
         drifts[name] = energy_drift(energies)
         drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
-        if "exact" in system:
+        if "dissipation" in system:  # a damped system: the closed-form solution is its referee
             solution[name] = against_exact(system, positions, velocities, energies, kept_steps(steps, every), args.dt)
     metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts, damping if solution else None,
                             solution or None)
@@ -835,7 +1088,8 @@ def main(argv=None) -> int:
     metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
     files, note = {}, None
     if args.rerun:
-        files[RECORDING_FILE], note = record(args.system, runs, kept_steps(steps, every), metrics["run_id"], ensemble)
+        files[RECORDING_FILE], note = record(system, runs, kept_steps(steps, every), args.dt, metrics["run_id"],
+                                             ensemble)
     files[METRICS_FILE] = metrics_text(metrics)
     write_run(args.out, files)  # all on disk before any replaces its old file; metrics.json last
     if solution:

@@ -634,7 +634,7 @@ AT_A_MOMENT = textwrap.dedent("""
 """)
 
 MOMENTS = {  # where the signal lands -> what the one line says about the files
-    "while the recording is built": ("engine", "log_energy", "no file was written"),
+    "while the recording is built": ("engine", "log_curves", "no file was written"),
     "while the recording is written": ("os", "write", "engine.rrd and metrics.json in {out} were left as they were"),
     "while it is flushed to disk": ("os", "fsync", "engine.rrd and metrics.json in {out} were left as they were"),
     "between the two renames": ("os", "rename", "engine.rrd and metrics.json in {out} were written before that"),

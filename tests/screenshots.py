@@ -1,0 +1,89 @@
+"""See the recording as a student does: run engine.py, open each .rrd in the real Rerun viewer, save PNGs.
+
+pytest does not collect this file (it is not named test_*). Run it from the repo root with the project's
+environment active:
+
+    python tests/screenshots.py            # four PNGs in outputs/screenshots/, then look at every one
+    python tests/screenshots.py --docs     # also refresh the README's pictures in docs/
+
+The viewer runs on a virtual screen: Debian's xvfb and mesa-vulkan-drivers (and xdotool, to park the
+mouse pointer where it hovers nothing). Rendering is software-only, so allow 20-60 s per picture.
+`rerun FILE --screenshot-to PNG` loads the whole file before it takes the picture; each recording opens
+with its time cursor on the last step, so a picture whose cursor sits on the run's last step was taken
+after everything had loaded.
+"""
+
+import argparse
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+WINDOW = (1600, 1000)  # logical points; the viewer renders at 2x, so the PNG is 3200 x 2000
+# name: engine.py flags. The first two are the README's pictures.
+CASES = {
+    "orbit": ["--system", "orbit"],
+    "freefall": ["--system", "freefall"],
+    "spring": ["--system", "spring"],
+    "orbit-200k": ["--system", "orbit", "--steps", "200000"],
+}
+DOCS = {"orbit": "recording-orbit.png", "freefall": "recording-freefall.png"}
+DOCS_WIDTH = 1200  # README pictures are scaled down and palette-quantized to stay small
+
+
+def screenshot(rrd: Path, png: Path) -> None:
+    """Open `rrd` in the viewer on a virtual screen and save what it shows to `png`."""
+    width, height = WINDOW
+    park_pointer = f"(sleep 3; xdotool mousemove {width - 60} 12) & " if shutil.which("xdotool") else ""
+    # --new: a viewer of our own on a free port, never a hand-off to another one already running
+    viewer = (f"{park_pointer}rerun --new --bind 127.0.0.1 --screenshot-to '{png}' "
+              f"--window-size {width}x{height} '{rrd}'")
+    png.unlink(missing_ok=True)
+    shown = subprocess.run(["xvfb-run", "-a", "-s", f"-screen 0 {width}x{height}x24", "bash", "-c", viewer],
+                           capture_output=True, text=True, timeout=300, check=False)
+    if not png.is_file():
+        log = "\n".join((shown.stdout + shown.stderr).splitlines()[-15:])
+        sys.exit(f"no screenshot of {rrd} (needs xvfb and mesa-vulkan-drivers); the viewer said:\n{log}")
+
+
+def shrink(png: Path, out: Path) -> None:
+    from PIL import Image
+
+    with Image.open(png) as image:
+        height = round(image.height * DOCS_WIDTH / image.width)
+        small = image.convert("RGB").resize((DOCS_WIDTH, height), Image.Resampling.LANCZOS)
+        small.quantize(colors=128, method=Image.Quantize.MEDIANCUT).save(out, optimize=True)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--docs", action="store_true", help="also write the README's pictures to docs/")
+    parser.add_argument("--out", type=Path, default=ROOT / "outputs" / "screenshots")
+    parser.add_argument("cases", nargs="*", metavar="CASE", help=f"some of {', '.join(CASES)} (default all)")
+    args = parser.parse_args()
+    unknown = sorted(set(args.cases) - set(CASES))
+    if unknown:
+        parser.error(f"unknown case {unknown[0]!r}; choose from {', '.join(CASES)}")
+    if not shutil.which("xvfb-run") or not shutil.which("rerun"):
+        sys.exit("needs xvfb-run (apt-get install xvfb mesa-vulkan-drivers) and rerun (activate the environment)")
+    args.out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as scratch:
+        for name in args.cases or CASES:
+            run_dir = Path(scratch) / name
+            subprocess.run([sys.executable, "engine.py", *CASES[name], "--out", str(run_dir)], cwd=ROOT, check=True,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            rrd = run_dir / "engine.rrd"
+            png = args.out / f"{name}.png"
+            screenshot(rrd, png)
+            print(f"{png}  ({rrd.stat().st_size / 1e6:.2f} MB recording)")
+            if args.docs and name in DOCS:
+                shrink(png, ROOT / "docs" / DOCS[name])
+                print(f"  -> docs/{DOCS[name]} ({(ROOT / 'docs' / DOCS[name]).stat().st_size / 1e3:.0f} KB)")
+    print("Now look at every picture: would a student get the chapter's point at a glance?")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
