@@ -118,7 +118,7 @@ def main(argv=None) -> int:
         "",
         f"The maps: stiffness per step w = dt sqrt(k/m) up, damping per step c = dt b/m across; '#' stayed"
         f" bounded for 2000 steps, '.' did not; your spring is the bottom row at c = {c:g} ('@' bounded,"
-        f" 'x' not). From the eigenvalues of each one-step matrix, at w = {w:g} the bounded dampings are:"
+        f" 'x' not). From the eigenvalues of each one-step matrix, at w = {w:g} the bounded dampings are: "
         + ", ".join(f"{name} {stability_map.shown(bounds[name], 5)}" for name in NAMES) + ".",
         f"- Both Eulers take the damping at the OLD velocity: v_new = v - c v = (1 - c) v = {1 - c:g} v. Past"
         " c = 2 that factor is below -1: the velocity flips sign and grows every step. Explicit Euler also has"
