@@ -33,6 +33,14 @@ try:  # loading takes a moment (numpy most of it): a Ctrl-C meanwhile ends in on
 
     from curriculum.common import OneLineParser, banner, int_in, positive_finite, progress_printer, wall_clock
     from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
+    from engine_ensembles import (
+        ENSEMBLE_MEMORY,
+        ensemble_block,
+        ensemble_bytes,
+        ensemble_every,
+        print_ensemble_report,
+        summarize_ensemble,
+    )
 except KeyboardInterrupt:
     print("interrupted: no file was written", file=sys.stderr)
     raise SystemExit(130) from None
@@ -44,12 +52,8 @@ MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integ
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
 CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
 PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
-ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
-ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
-SHOWN_MEMBERS = 20  # member paths an ensemble's recording draws: enough to see the spread, few enough to open
 BOUNDED_SLACK = 1e-3  # a steady oscillation's sampled peaks differ by less than this between halves
 METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
-APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '_' and '-'
 
 
 # --- systems ---
@@ -285,7 +289,6 @@ def rk4_step(q, v, m, force, dt):
 
 
 INTEGRATORS = {"euler": euler_step, "semi_implicit": semi_implicit_step, "rk4": rk4_step}
-COLORS = {"euler": [217, 76, 64], "semi_implicit": [76, 175, 80], "rk4": [64, 115, 217], "implicit": [155, 89, 182]}
 
 
 # The next rung, for systems whose force depends on the velocity (a damper): it needs one
@@ -416,81 +419,6 @@ def did_not_move(positions: np.ndarray, velocities: np.ndarray) -> bool:
     return bool(np.all(np.abs(change) <= np.spacing(np.max(np.abs(start)))))
 
 
-# --- ensembles: many seeds at once ---
-# build_ensemble() stacks N starting states into (N, 3) arrays and simulate() steps them
-# together: the same arithmetic on every row, so each member is bit for bit its own single
-# run, at a fraction of the cost per member. What we keep is what the report needs: every
-# member's energy at every step, but positions only every few steps.
-
-
-def ensemble_every(steps: int, members: int) -> int:
-    """Keep every k-th state so an ensemble's positions stay under ENSEMBLE_KEPT_VALUES numbers."""
-    return max(1, math.ceil((steps + 1) * members * 3 / ENSEMBLE_KEPT_VALUES))
-
-
-def ensemble_bytes(steps: int, members: int) -> int:
-    """Memory one integrator's ensemble holds at its peak: every energy (8 bytes) and whether it is
-    finite (1 byte), the kept positions and velocities, and the recording's error spread over them."""
-    return 9 * (steps + 1) * members + 3 * 8 * ENSEMBLE_KEPT_VALUES
-
-
-def ensemble_drift(energies: np.ndarray) -> dict:
-    """energy_drift() for every member of an ensemble at once; energies is (steps + 1, N).
-
-    Returns arrays of N: rel_final, rel_max (NaN where the member diverged) and diverged; each
-    member's figures are the bits energy_drift() gives for that member alone."""
-    e0 = energies[0]
-    scale = np.where(e0 != 0.0, np.abs(e0), 1.0)
-    with np.errstate(all="ignore"):
-        # the worst excursion is above the highest energy or below the lowest: no (steps, N) temporaries,
-        # and the same bits as max |E - E0| because subtracting E0 keeps the order
-        worst = np.maximum(np.max(energies, axis=0) - e0, e0 - np.min(energies, axis=0))
-        diverged = ~np.isfinite(worst / scale)  # a non-finite energy, or finite ones whose error overflows
-        rel_final = np.where(diverged, np.nan, (energies[-1] - e0) / scale)
-        rel_max = np.where(diverged, np.nan, worst / scale)
-    return {"rel_final": rel_final, "rel_max": rel_max, "diverged": diverged}
-
-
-def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
-    """(len(kept), 3): min, median and max over the members of |E - E0| / |E0| at the kept steps."""
-    e0 = energies[0]
-    with np.errstate(all="ignore"):
-        relative = np.abs(energies[kept] - e0) / np.where(e0 != 0.0, np.abs(e0), 1.0)
-        relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
-        # (a median of two errors near the float limit overflows to inf, which the plot leaves out)
-        return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
-
-
-def ordering_holds(drifts: dict) -> np.ndarray:
-    """Per member: |euler rel_final| > semi_implicit rel_max > rk4 rel_max (False where any diverged)."""
-    euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
-    with np.errstate(invalid="ignore"):
-        return (np.abs(euler["rel_final"]) > semi["rel_max"]) & (semi["rel_max"] > rk4["rel_max"])
-
-
-def spread(values: np.ndarray) -> dict | None:
-    """min, median and max over the members that did not diverge (None if all did)."""
-    finite = np.sort(values[np.isfinite(values)])
-    if len(finite) == 0:
-        return None
-    middle = finite[(len(finite) - 1) // 2: len(finite) // 2 + 1]
-    with np.errstate(over="ignore"):
-        median = np.median(middle)
-    if not np.isfinite(median):  # two middle values near the float limit: their sum overflows, their halves do not
-        median = middle[0] / 2 + middle[-1] / 2
-    return {"min": float(finite[0]), "median": float(median), "max": float(finite[-1])}
-
-
-def summarize_ensemble(energies: np.ndarray, positions: np.ndarray, kept: np.ndarray, for_recording: bool) -> dict:
-    """What an ensemble run keeps of one integrator: each member's drift and, for the recording,
-    the first members' paths and the spread of all the members' error curves."""
-    summary = ensemble_drift(energies)
-    if for_recording:
-        summary["paths"] = positions[:, :SHOWN_MEMBERS].copy()
-        summary["error_spread"] = error_spread(energies, kept)
-    return summary
-
-
 def against_exact(system: dict, positions, velocities, energies, kept, dt: float) -> dict:
     """A damped run (one body) against its closed-form solution: what the report prints for it.
 
@@ -528,335 +456,6 @@ def simpson(values, h: float) -> float:
     if head < n:
         total += 3.0 * h / 8.0 * (f[n - 3] + 3.0 * f[n - 2] + 3.0 * f[n - 1] + f[n])
     return total
-
-
-# --- record ---
-# All of Rerun lives here, imported only when a recording is asked for, so the physics and the tests run
-# without it. Each system opens on its own lesson: RECORDED_VIEWS lists, per system, the views it needs,
-# and each log_<view>() logs its data along the `step` timeline and returns that view's layout. A new
-# system or view plugs in with one function and one line in the table.
-
-LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk4": "RK4",
-          "implicit": "implicit (damping)"}
-PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
-DRAW_LIMIT = 1e30  # Rerun stores float32 (up to 3.4e38): we draw coordinates below this, leaving headroom
-# for the camera's distance and the labels' lifts; a diverged run's inf and NaN are never drawn
-
-
-def record(system: dict, runs: dict, kept: np.ndarray, dt: float, run_id: str,
-           ensemble: dict | None = None) -> tuple[bytes, str | None]:
-    """The .rrd bytes of runs {integrator: (positions, velocities, energies)}, and a note if thinned.
-
-    `kept` are the step numbers of the kept states; energies are logged at those steps too.
-    `ensemble`, from an --ensemble run, adds a row below: members' paths and their error spread.
-    The recording is built in memory and saved by write_run() beside metrics.json, whose
-    run_id it carries as its recording id: a full disk is then our error to report, not a
-    hang inside Rerun's file sink.
-    """
-    import rerun as rr
-    import rerun.blueprint as rrb
-
-    # The stream: built in memory under the run's id; write_run() saves it beside metrics.json.
-    recording = rr.RecordingStream(APPLICATION_ID, recording_id=run_id)
-    in_memory = recording.memory_recording()
-    try:
-        views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in RECORDED_VIEWS[system["name"]]]
-        below = [log_view(rr, rrb, recording, ensemble, kept) for log_view in ENSEMBLE_VIEWS] if ensemble else []
-        recording.send_blueprint(layout(rrb, views, below, kept), make_active=False, make_default=True)
-    finally:
-        data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
-    steps = int(kept[-1])
-    if len(kept) == steps + 1:
-        return data, None
-    every = int(kept[1] - kept[0])
-    return data, f"recording keeps 1 state in {every} of {steps + 1:,} per integrator, to stay viewable " \
-                 "(metrics use all)"
-
-
-def layout(rrb, views, below, kept):
-    """The first view large on the left, the others stacked on the right, `below` in a row underneath;
-    the side panels folded away.
-
-    The file opens with the time cursor on the last step (play state "following"): every body where its
-    run ended, every plot whole. Pause, then play, and the viewer starts again from step 0.
-    """
-    first, *others = views
-    story = rrb.Horizontal(first, rrb.Vertical(*others), column_shares=[3, 2]) if others else first
-    if below:
-        story = rrb.Vertical(story, rrb.Horizontal(*below))
-    return rrb.Blueprint(
-        story,
-        rrb.BlueprintPanel(state="hidden"),
-        rrb.SelectionPanel(state="hidden"),
-        rrb.TimePanel(state="collapsed", timeline="step", play_state="following",
-                      fps=max(int(kept[-1]) / PLAYBACK_SECONDS, 1.0)),
-    )
-
-
-def drawable(points):
-    """Rows whose every coordinate Rerun can draw (a diverged run's inf and NaN are left out)."""
-    return (np.abs(points) < DRAW_LIMIT).all(axis=-1)
-
-
-def on_steps(rr, steps):
-    return [rr.TimeColumn("step", sequence=steps)]
-
-
-def log_bodies(rr, recording, entity, name, points, kept, label_lift):
-    """One integrator in a spatial view: its whole path as a trail, and a body that travels along it.
-
-    Sizes are in screen points, so a body stays a visible dot and a trail a thin line at any zoom.
-    """
-    shown = drawable(points)
-    colour = [COLORS[name]]
-    trail = rr.LineStrips3D([points[shown]], colors=colour, radii=rr.components.Radius.ui_points(1.0))
-    recording.log(f"{entity}/trail", trail, static=True)
-    body = rr.Points3D.from_fields(colors=colour, radii=rr.components.Radius.ui_points(7.0))
-    recording.log(f"{entity}/body", body, static=True)
-    recording.send_columns(f"{entity}/body", indexes=on_steps(rr, kept[shown]),
-                           columns=rr.Points3D.columns(positions=points[shown]))
-    # The label rides with its body, lifted up or down the screen (+y) by label_lifts() below.
-    lifted = points[shown] + label_lift[shown, None] * [0.0, 1.0, 0.0]
-    recording.log(f"{entity}/label", rr.Points3D.from_fields(colors=colour, radii=[0.0], labels=[LABELS[name]],
-                                                             show_labels=True), static=True)
-    recording.send_columns(f"{entity}/label", indexes=on_steps(rr, kept[shown]),
-                           columns=rr.Points3D.columns(positions=lifted))
-
-
-def label_lifts(paths, gap=0.045):
-    """Per step, how far to lift each integrator's label: by its body's rank in height among the bodies.
-
-    Bodies in one place (they all start together; RK4 and semi-implicit stay close) would stack their
-    labels into one unreadable blot. Ranked this way the labels keep their bodies' order and stay apart.
-    """
-    low, high = extent(paths.values())
-    gap *= float(max(high[0] - low[0], high[1] - low[1]) or 1.0)  # a fraction of what the camera frames
-    heights = np.stack([points[:, 1] for points in paths.values()], axis=1)
-    rank = np.argsort(np.argsort(heights, axis=1, kind="stable"), axis=1)  # 0 = lowest body at that step
-    lifts = (rank - (len(paths) - 1) / 2.0) * gap
-    return {name: lifts[:, i] for i, name in enumerate(paths)}
-
-
-def extent(paths):
-    """The corners (low, high) of the box around every drawable point; a unit box if there are none."""
-    points = np.concatenate([p[drawable(p)] for p in paths])
-    if len(points) == 0:
-        return np.full(3, -1.0), np.full(3, 1.0)
-    return points.min(axis=0), points.max(axis=0)
-
-
-def camera_above(rrb, paths, tilt):
-    """A camera above the plane z = 0 that frames every drawable point of every path.
-
-    tilt 0 looks straight down with +y up the screen (a flat plot); a small tilt shows that it is 3D.
-    """
-    low, high = extent(paths)
-    centre = (low + high) / 2.0
-    distance = 1.2 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)  # a margin for the axis names
-    up = [0.0, 0.0, 1.0] if tilt else [0.0, 1.0, 0.0]
-    return rrb.EyeControls3D(kind="Orbital", look_target=centre.tolist(), eye_up=up,
-                             position=(centre + [0.0, -tilt * distance, distance]).tolist())
-
-
-def log_orbit(rr, rrb, recording, system, runs, kept, dt):
-    """3D, seen from above: each body circles the attractor, Euler's spiralling out, the other two together."""
-    attractor = rr.Points3D([[0.0, 0.0, 0.0]], radii=rr.components.Radius.ui_points(6.0), colors=[[230, 230, 230]],
-                            labels=["attractor"])
-    recording.log("orbit/attractor", attractor, static=True)
-    paths = {name: positions for name, (positions, _, _) in runs.items()}
-    lifts = label_lifts(paths)
-    for name, positions in paths.items():
-        log_bodies(rr, recording, f"orbit/{name}", name, positions, kept, label_lift=lifts[name])
-    return rrb.Spatial3DView(origin="orbit", name="orbit: the paths, from above",
-                             eye_controls=camera_above(rrb, paths.values(), tilt=0.35),
-                             line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
-
-
-def first_start(system):
-    """(q0, v0) of the body the runs are: the system's own, or an ensemble's first member's."""
-    q0, v0 = system["q0"], system["v0"]
-    return (q0[0], v0[0]) if np.ndim(q0) == 2 else (q0, v0)
-
-
-def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
-    """x across, v_x up: a closed curve is an oscillation that keeps its energy; Euler's spirals out."""
-    planes = {name: np.stack([positions[:, 0], velocities[:, 0], np.zeros(len(kept))], axis=1)
-              for name, (positions, velocities, _) in runs.items()}
-    lifts = label_lifts(planes)
-    for name, plane in planes.items():
-        log_bodies(rr, recording, f"phase/{name}", name, plane, kept, label_lift=lifts[name])
-    # The exact motion, wide and grey, a hair below the plane so the integrators' lines lie on top of it.
-    # Its velocity is the exact position's central difference over a microsecond.
-    q0, v0 = first_start(system)
-    t, h = kept * dt, 1e-6
-    x = system["exact"](q0, v0, t)[:, 0]
-    v = (system["exact"](q0, v0, t + h)[:, 0] - system["exact"](q0, v0, t - h)[:, 0]) / (2.0 * h)
-    low, high = extent(planes.values())
-    below = -0.002 * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
-    exact = np.stack([x, v, np.full(len(kept), below)], axis=1)
-    recording.log("phase/exact", rr.LineStrips3D([exact[drawable(exact)]], colors=[[120, 120, 120]],
-                                                 radii=rr.components.Radius.ui_points(3.0)), static=True)
-    log_axes(rr, recording, "phase/axes", np.maximum(-low, high)[:2] * 1.1, ("x (m)", "v_x (m/s)"))
-    name = f"{system['name']}: phase plane, x against v_x (grey: the exact motion)"
-    return rrb.Spatial3DView(origin="phase", name=name,
-                             eye_controls=camera_above(rrb, planes.values(), tilt=0.0),
-                             line_grid=rrb.LineGrid3D(visible=True, spacing=0.5))
-
-
-def log_axes(rr, recording, entity, reach, names):
-    """Axes through the origin out to +-reach, named at their tips, with ticks at round numbers.
-
-    A 3D view looking straight down stands in for a 2D plot because Rerun's 2D views point y downwards.
-    """
-    grey = [[150, 150, 150]]
-    x, y = float(reach[0]), float(reach[1])
-    lines = rr.LineStrips3D([[[-x, 0, 0], [x, 0, 0]], [[0, -y, 0], [0, y, 0]]], colors=grey,
-                            radii=rr.components.Radius.ui_points(1.0))
-    recording.log(entity, lines, static=True)
-    tips = rr.Points3D([[x, 0, 0], [0, y, 0]], radii=[0.0], colors=[[200, 200, 200]], labels=names, show_labels=True)
-    recording.log(f"{entity}/names", tips, static=True)
-    ticks = []
-    for axis, length in enumerate((x, y)):
-        unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0  # 1 to 9 ticks each way
-        for k in range(-int(length / unit), int(length / unit) + 1):
-            if k:
-                ticks.append([k * unit if axis == 0 else 0.0, k * unit if axis == 1 else 0.0, 0.0])
-    marks = rr.Points3D(ticks, radii=rr.components.Radius.ui_points(3.0), colors=grey,
-                        labels=[f"{t[0] + t[1]:g}" for t in ticks], show_labels=True)
-    recording.log(f"{entity}/ticks", marks, static=True)
-
-
-def log_curves(rr, recording, origin, curves, kept, widths=None):
-    """One line per integrator on the `step` timeline, in its colour. Returns the finite values logged."""
-    logged = []
-    for name, values in curves.items():
-        style = rr.SeriesLines(colors=[COLORS[name]], names=[LABELS[name]], widths=widths and [widths[name]])
-        recording.log(f"{origin}/{name}", style, static=True)
-        shown = np.isfinite(values)
-        recording.send_columns(f"{origin}/{name}", indexes=on_steps(rr, kept[shown]),
-                               columns=rr.Scalars.columns(scalars=values[shown]))
-        logged.append(values[shown])
-    return np.concatenate(logged)
-
-
-def log_level(rr, recording, entity, label, value, kept):
-    """A grey line at `value` across the whole run, to read the curves against."""
-    recording.log(entity, rr.SeriesLines(colors=[[150, 150, 150]], names=[label]), static=True)
-    recording.send_columns(entity, indexes=on_steps(rr, [0, int(kept[-1])]),
-                           columns=rr.Scalars.columns(scalars=[value, value]))
-
-
-def plot(rr, rrb, origin, name, kept, y_range, legend):
-    """A time-series view that opens on the whole run, from step 0 to the last, on a fixed y range."""
-    whole_run = rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seq=0),
-                             end=rrb.TimeRangeBoundary.absolute(seq=int(kept[-1])))
-    return rrb.TimeSeriesView(origin=origin, name=name, axis_x=rrb.TimeAxis(view_range=whole_run),
-                              axis_y=rrb.ScalarAxis(range=y_range), plot_legend=rrb.PlotLegend(corner=legend),
-                              interaction=rrb.PlotInteraction(tooltip_mode="All"))
-
-
-def padded(values, margin=0.05):
-    """(low, high) of the values with a margin, or None (the viewer's own fit) when there are none."""
-    if values.size == 0:
-        return None
-    low, high = float(values.min()), float(values.max())
-    pad = margin * ((high - low) or 1.0)
-    return (low - pad, high + pad)
-
-
-def log10_of(x):
-    """log10 where x > 0, NaN elsewhere (exact zeros, which have no logarithm, are not drawn)."""
-    with np.errstate(all="ignore"):
-        return np.where(x > 0.0, np.log10(np.where(x > 0.0, x, 1.0)), np.nan)
-
-
-def log_position_error(rr, rrb, recording, system, runs, kept, dt):
-    """log10 |q - q_exact| in metres: RK4 sits orders of magnitude below semi-implicit Euler."""
-    exact = system["exact"](*first_start(system), kept * dt)
-    curves = {}
-    for name, (positions, _, _) in runs.items():
-        miss = positions - exact
-        with np.errstate(all="ignore"):
-            curves[name] = log10_of(np.sqrt(dot3(miss, miss)))
-    logged = log_curves(rr, recording, "position_error", curves, kept)
-    # log10 = 0: off by 1 m, the size of the orbit (or of the spring's swing) itself. "zero" sorts last.
-    log_level(rr, recording, "position_error/zero", "1 m, the size of the motion", 0.0, kept)
-    return plot(rr, rrb, "position_error", "position error against the exact motion: log10 |q - q_exact| (m)", kept,
-                padded(np.append(logged, 0.0)), "RightBottom")
-
-
-def log_energy_error(rr, rrb, recording, system, runs, kept, dt):
-    """log10 |E - E0| / |E0|, digits of energy lost: Euler climbs to 0 (100%), semi-implicit stays in a band."""
-    curves = {}
-    for name, (_, _, energies) in runs.items():
-        e0 = energies[0]
-        with np.errstate(all="ignore"):
-            curves[name] = log10_of(np.abs(energies[kept] - e0) / (abs(e0) or 1.0))
-    logged = log_curves(rr, recording, "energy_error", curves, kept)
-    log_level(rr, recording, "energy_error/zero", "100% of E0", 0.0, kept)  # log10 = 0: all of it
-    return plot(rr, rrb, "energy_error", "energy error: log10 |E - E0| / |E0|", kept, padded(np.append(logged, 0.0)),
-                "RightBottom")
-
-
-def log_energy_change(rr, rrb, recording, system, runs, kept, dt):
-    """(E - E0) / |E0| in percent, sign kept: on freefall the two Eulers miss by the same amount, opposite ways."""
-    curves = {}
-    for name, (_, _, energies) in runs.items():
-        e0 = energies[0]
-        with np.errstate(all="ignore"):
-            curves[name] = (energies[kept] - e0) / (abs(e0) or 1.0) * 100.0
-    logged = log_curves(rr, recording, "energy_change", curves, kept)
-    reach = 1.15 * float(np.abs(logged).max(initial=0.0)) or 1.0
-    return plot(rr, rrb, "energy_change", "energy change (E - E0) / |E0|, %", kept, (-reach, reach), "LeftTop")
-
-
-def log_height(rr, rrb, recording, system, runs, kept, dt):
-    """Height z against the step: the body falls and never comes back, so no error is ever paid back."""
-    curves = {name: positions[:, 2] for name, (positions, _, _) in runs.items()}
-    # The default run's heights end 2 m apart after a 2 km fall: one line to the eye. Drawn widest
-    # first (the viewer draws in name order: euler, rk4, semi_implicit), all three show.
-    widths = {"euler": 7.0, "rk4": 4.0, "semi_implicit": 1.5}
-    logged = log_curves(rr, recording, "height", curves, kept, widths)
-    ends = [heights[-1] for heights in curves.values() if np.isfinite(heights[-1])]
-    apart = f": the curves end {max(ends) - min(ends):.2g} m apart" if len(ends) > 1 else ""
-    return plot(rr, rrb, "height", f"height z (m){apart}", kept, padded(logged), "LeftBottom")
-
-
-def log_member_paths(rr, rrb, recording, ensemble, kept):
-    """An ensemble's 3D view: the first members' paths, one strip each, in the integrator's colour."""
-    for name, summary in ensemble.items():
-        strips = [member[drawable(member)] for member in summary["paths"].swapaxes(0, 1)]
-        lines = rr.LineStrips3D(strips, colors=[COLORS[name]], radii=rr.components.Radius.ui_points(0.75))
-        recording.log(f"ensemble_paths/{name}", lines, static=True)
-    return rrb.Spatial3DView(origin="ensemble_paths", name=f"the first {SHOWN_MEMBERS} members' paths")
-
-
-def log_error_spread(rr, rrb, recording, ensemble, kept):
-    """Three curves per integrator, min, median and max of log10 |E - E0| / |E0| over all members.
-
-    Their gap is how much the seed matters: wide for the orbit, round-off for the linear spring.
-    """
-    logged = []
-    for name, summary in ensemble.items():
-        for column, (which, width) in enumerate((("min", 0.5), ("median", 2.0), ("max", 0.5))):
-            curve = log10_of(summary["error_spread"][:, column])
-            style = rr.SeriesLines(colors=[COLORS[name]], names=[f"{LABELS[name]} {which}"], widths=[width])
-            recording.log(f"ensemble_error/{name}/{which}", style, static=True)
-            shown = np.isfinite(curve)
-            recording.send_columns(f"ensemble_error/{name}/{which}", indexes=on_steps(rr, kept[shown]),
-                                   columns=rr.Scalars.columns(scalars=curve[shown]))
-            logged.append(curve[shown])
-    return plot(rr, rrb, "ensemble_error", "log10 |E - E0| / |E0|: min, median, max over members", kept,
-                padded(np.concatenate(logged)), "RightBottom")
-
-
-RECORDED_VIEWS = {  # per system, the views its lesson needs; the first one opens large on the left
-    "orbit": (log_orbit, log_position_error, log_energy_error),
-    "spring": (log_phase_plane, log_energy_error),
-    "freefall": (log_energy_change, log_height),
-    "damped_spring": (log_phase_plane, log_position_error),  # energy drains by design: the exact motion referees
-}
-ENSEMBLE_VIEWS = (log_member_paths, log_error_spread)  # an --ensemble run adds these in a row below
 
 
 # --- report ---
@@ -915,44 +514,6 @@ def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
             ok = abs(euler["rel_final"]) > semi["rel_max"] > rk4["rel_max"]
             verdict = "as expected" if ok else "UNEXPECTED: investigate"
         print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: {verdict}")
-
-
-def ensemble_block(system_name: str, seeds: range, ensemble: dict) -> dict:
-    """The `ensemble` block of metrics.json (rounded there like drift): each drift's spread, the ordering count."""
-    block = {"seeds": [seeds[0], seeds[-1]], "members": len(seeds), "drift": {
-        name: {"rel_final": spread(s["rel_final"]), "rel_max": spread(s["rel_max"]),
-               "diverged": int(np.count_nonzero(s["diverged"]))} for name, s in ensemble.items()}}
-    if set(ensemble) == set(INTEGRATORS) and system_name in ("orbit", "spring"):
-        holds = ordering_holds(ensemble)
-        diverged = np.any([s["diverged"] for s in ensemble.values()], axis=0)  # such a member cannot be judged
-        block["ordering_holds"] = int(np.count_nonzero(holds))
-        block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(~holds & ~diverged).tolist()]
-        block["ordering_not_judged"] = int(np.count_nonzero(diverged))
-    return block
-
-
-def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
-    """The ensemble's table: per integrator, min/median/max over the members of both drifts."""
-    print(f"\nensemble of seeds {seeds[0]}..{seeds[-1]}: {len(seeds):,} members stepped together")
-    if system_name == "spring":
-        print("(the spring is linear: a seed only scales the amplitude, so every member's relative drift\n"
-              " is the same up to round-off; the spread below is not a finding)")
-    print(f"{'':<14}{'rel_final':^36}  {'rel_max':^36}".rstrip())
-    print(f"{'integrator':<14}" + f"{'min':>12}{'median':>12}{'max':>12}  " * 2 + f"{'diverged':>8}")
-    for name, d in block["drift"].items():
-        cells = [("".join(f"{x[key]:>12.3e}" for key in ("min", "median", "max")) if x else f"{'-':>36}")
-                 for x in (d["rel_final"], d["rel_max"])]  # '-': every member diverged
-        print(f"{name:<14}{cells[0]}  {cells[1]}  {d['diverged']:>8,}")
-    if "ordering_holds" in block:
-        print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: holds for {block['ordering_holds']:,}"
-              f" of {len(seeds):,} seeds")
-        if block["ordering_not_judged"]:
-            print(f"  {block['ordering_not_judged']:,} diverged under some integrator and cannot be judged"
-                  " (try a smaller --dt)")
-        fails = block["ordering_fails_for_seeds"]
-        if fails:
-            more = f" and {len(fails) - 10:,} more" if len(fails) > 10 else ""
-            print(f"  it fails for seed {', '.join(map(str, fails[:10]))}{more}: rerun one with --seed to look")
 
 
 def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solution: dict) -> None:
@@ -1088,6 +649,8 @@ def main(argv=None) -> int:
     metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
     files, note = {}, None
     if args.rerun:
+        from engine_recording import record  # Rerun loads only when a recording is asked for
+
         files[RECORDING_FILE], note = record(system, runs, kept_steps(steps, every), args.dt, metrics["run_id"],
                                              ensemble)
     files[METRICS_FILE] = metrics_text(metrics)

@@ -1,4 +1,4 @@
-"""Benchmark: what engine.record() costs, and how big the .rrd is, for the default runs and a long one.
+"""Benchmark: what engine_recording.record() costs, and how big the .rrd is, for the default runs and a long one.
 
     python tests/bench_recording.py        # about a minute on 2 cores (the 200,000-step runs dominate)
 
@@ -21,6 +21,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import engine  # noqa: E402
+import engine_recording  # noqa: E402
 
 REPEATS = 5
 
@@ -48,7 +49,7 @@ def main() -> int:
         times = []
         for _ in range(REPEATS if steps <= 2000 else 3):
             start = time.perf_counter()
-            data, _ = engine.record(system, runs, kept, dt, run_id=f"bench-{system_name}-{steps}")
+            data, _ = engine_recording.record(system, runs, kept, dt, run_id=f"bench-{system_name}-{steps}")
             times.append(time.perf_counter() - start)
         label = f"{system_name} {steps:,} steps"
         print(f"{label:<24}{times[0]:>14.3f} s{min(times[1:]):>12.3f} s{len(data) / 1e6:>9.2f} MB")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import engine
+import engine_ensembles as ensembles
 from conftest import REPO, run_engine
 
 SEEDS = [0, 1, 2, 7, 123, 40_000]
@@ -60,7 +61,7 @@ def test_ensemble_starts_are_the_single_runs_starts():
 def test_ensemble_drift_is_energy_drift_member_by_member(dt):
     ensemble = engine.build_ensemble("spring", SEEDS)
     _, _, energies = engine.simulate(engine.euler_step, ensemble, dt, 500)
-    drift = engine.ensemble_drift(energies)
+    drift = ensembles.ensemble_drift(energies)
     for i in range(len(SEEDS)):
         single = engine.energy_drift(energies[:, i])
         assert bool(drift["diverged"][i]) == single["diverged"]
@@ -71,9 +72,9 @@ def test_ensemble_drift_is_energy_drift_member_by_member(dt):
 
 
 def test_orbit_members_really_differ_and_the_spring_only_scales():
-    orbit = engine.ensemble_drift(engine.simulate(engine.semi_implicit_step, engine.build_ensemble("orbit", SEEDS),
+    orbit = ensembles.ensemble_drift(engine.simulate(engine.semi_implicit_step, engine.build_ensemble("orbit", SEEDS),
                                                   0.01, 2000)[2])
-    spring = engine.ensemble_drift(engine.simulate(engine.semi_implicit_step, engine.build_ensemble("spring", SEEDS),
+    spring = ensembles.ensemble_drift(engine.simulate(engine.semi_implicit_step, engine.build_ensemble("spring", SEEDS),
                                                    0.01, 2000)[2])
     assert np.ptp(orbit["rel_max"]) > 0.1 * np.median(orbit["rel_max"])  # the seed changes the physics
     # linear: the seed scales the amplitude only (measured spread 1.9e-12 of the median over 1,000 seeds)
@@ -86,7 +87,7 @@ def test_ordering_count_names_the_seeds_where_it_fails():
     semi = {"rel_final": np.zeros(3), "rel_max": np.array([1e-4, 0.5, 1e-4]), "diverged": np.zeros(3, bool)}
     rk4 = {"rel_final": np.zeros(3), "rel_max": np.array([1e-11, 1e-11, np.nan]), "diverged": np.zeros(3, bool)}
     drifts = {"euler": {**ok, "diverged": np.zeros(3, bool)}, "semi_implicit": semi, "rk4": rk4}
-    block = engine.ensemble_block("orbit", range(10, 13), drifts)
+    block = ensembles.ensemble_block("orbit", range(10, 13), drifts)
     assert block["ordering_holds"] == 1 and block["ordering_fails_for_seeds"] == [11, 12]
     assert block["ordering_not_judged"] == 0
 
@@ -142,9 +143,9 @@ def test_bad_ensemble_gets_one_line_and_touches_nothing(members, why, tmp_path):
 
 
 def test_memory_estimate_refuses_what_would_not_fit():
-    assert engine.ensemble_bytes(2000, 10_000) < engine.ENSEMBLE_MEMORY  # the 10,000 orbits fit
-    assert engine.ensemble_bytes(2000, 100_000) > engine.ENSEMBLE_MEMORY
-    assert engine.ensemble_bytes(SMOKE := engine.SMOKE_STEPS, 100_000) < engine.ensemble_bytes(2000, 100_000)
+    assert ensembles.ensemble_bytes(2000, 10_000) < ensembles.ENSEMBLE_MEMORY  # the 10,000 orbits fit
+    assert ensembles.ensemble_bytes(2000, 100_000) > ensembles.ENSEMBLE_MEMORY
+    assert ensembles.ensemble_bytes(SMOKE := engine.SMOKE_STEPS, 100_000) < ensembles.ensemble_bytes(2000, 100_000)
     assert SMOKE == 600
 
 

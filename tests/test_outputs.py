@@ -619,10 +619,10 @@ def test_a_run_waits_its_turn_for_the_folder_and_sigterm_still_ends_it(tmp_path)
 
 AT_A_MOMENT = textwrap.dedent("""
     import os, signal, sys
-    import engine
+    import engine, engine_recording
     from curriculum.common import outputs
     signame, where, attribute, out = sys.argv[1:5]
-    owner = engine if where == "engine" else outputs.os
+    owner = engine_recording if where == "engine_recording" else outputs.os
     real = getattr(owner, attribute)
     def signal_here(*args, **kwargs):  # the signal lands at this exact moment of the run
         setattr(owner, attribute, real)
@@ -634,7 +634,7 @@ AT_A_MOMENT = textwrap.dedent("""
 """)
 
 MOMENTS = {  # where the signal lands -> what the one line says about the files
-    "while the recording is built": ("engine", "log_curves", "no file was written"),
+    "while the recording is built": ("engine_recording", "log_curves", "no file was written"),
     "while the recording is written": ("os", "write", "engine.rrd and metrics.json in {out} were left as they were"),
     "while it is flushed to disk": ("os", "fsync", "engine.rrd and metrics.json in {out} were left as they were"),
     "between the two renames": ("os", "rename", "engine.rrd and metrics.json in {out} were written before that"),

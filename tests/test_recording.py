@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import engine
+import engine_recording
 from exercises.support import exact as closed_form
 
 rerun_chunk = pytest.importorskip("rerun.chunk", reason="rerun-sdk is a core dependency; install the project")
@@ -93,15 +94,16 @@ def test_each_body_travels_its_run_step_by_step_along_its_whole_path(recorded, s
         body = entities[f"/{view}/{name}/body"]
         assert column(body, "step") == list(range(STEPS + 1)), "one position per step, on the step timeline"
         np.testing.assert_array_equal(np.concatenate(column(body, "Points3D:positions")), shown.astype(np.float32))
-        assert column(body, "Points3D:colors")[0] == [packed(engine.COLORS[name])]
+        assert column(body, "Points3D:colors")[0] == [packed(engine_recording.COLORS[name])]
 
         (trail,) = column(entities[f"/{view}/{name}/trail"], "LineStrips3D:strips")[0]
         np.testing.assert_array_equal(np.array(trail), shown.astype(np.float32))
-        assert column(entities[f"/{view}/{name}/trail"], "LineStrips3D:colors")[0] == [packed(engine.COLORS[name])]
+        colour = [packed(engine_recording.COLORS[name])]
+        assert column(entities[f"/{view}/{name}/trail"], "LineStrips3D:colors")[0] == colour
 
         label = entities[f"/{view}/{name}/label"]
-        assert column(label, "Points3D:labels")[0] == [engine.LABELS[name]]
-        assert column(label, "Points3D:colors")[0] == [packed(engine.COLORS[name])]
+        assert column(label, "Points3D:labels")[0] == [engine_recording.LABELS[name]]
+        assert column(label, "Points3D:colors")[0] == [packed(engine_recording.COLORS[name])]
         assert column(label, "step") == list(range(STEPS + 1))
         riding = np.concatenate(column(label, "Points3D:positions")) - shown.astype(np.float32)
         assert np.allclose(riding[:, [0, 2]], 0.0), "the label moves with its body, only lifted up or down"
@@ -145,7 +147,7 @@ def test_orbit_position_error_is_measured_against_keplers_exact_orbit(recorded):
         assert logged_steps == [i for i in steps if miss[i] > 1e-14], "only step 0, where the error is 0, has no log"
         logged = np.ravel(column(series, "Scalars:scalars"))
         np.testing.assert_allclose(logged[1:], np.log10(miss[logged_steps[1:]]), atol=1e-3)
-        assert column(series, "SeriesLines:colors")[0] == [packed(engine.COLORS[name])]
+        assert column(series, "SeriesLines:colors")[0] == [packed(engine_recording.COLORS[name])]
         finals[name] = logged[-1]
     # metres off after 20 s: Euler by its whole radius, semi-implicit by millimetres, RK4 by nanometres
     assert finals["euler"] > -0.5 and -4 < finals["semi_implicit"] < -1 and finals["rk4"] < -7
@@ -160,7 +162,7 @@ def test_energy_error_is_the_log_of_the_relative_drift_step_for_step(recorded, s
         steps = column(series, "step")
         assert steps == [i for i in range(STEPS + 1) if rel[i] > 0]  # exact zeros have no logarithm
         np.testing.assert_array_equal(np.ravel(column(series, "Scalars:scalars")), np.log10(rel[steps]))
-        assert column(series, "SeriesLines:names")[0] == [engine.LABELS[name]]
+        assert column(series, "SeriesLines:names")[0] == [engine_recording.LABELS[name]]
 
 
 def test_freefall_shows_the_signed_energy_change_and_the_height(recorded):
@@ -227,7 +229,7 @@ def test_side_panels_are_folded_and_the_file_opens_on_the_last_step(recorded, sy
     assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
     assert time_panel["TimePanelBlueprint:timeline"] == "step"
     assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
-    assert time_panel["TimePanelBlueprint:fps"] * engine.PLAYBACK_SECONDS == pytest.approx(STEPS)
+    assert time_panel["TimePanelBlueprint:fps"] * engine_recording.PLAYBACK_SECONDS == pytest.approx(STEPS)
 
 
 @pytest.mark.slow
@@ -247,7 +249,7 @@ def test_long_runs_are_thinned_in_the_recording_but_not_in_the_metrics(tmp_path,
 
 def test_every_system_has_its_views_in_the_table():
     """A new system records only once it has its line in RECORDED_VIEWS: this says so before a student does."""
-    assert set(engine.RECORDED_VIEWS) == set(engine.SYSTEMS + engine.DAMPED_SYSTEMS)
+    assert set(engine_recording.RECORDED_VIEWS) == set(engine.SYSTEMS + engine.DAMPED_SYSTEMS)
 
 
 def test_the_damped_spring_opens_on_its_phase_plane_beside_its_error_against_the_exact_motion(tmp_path):
