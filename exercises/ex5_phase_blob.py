@@ -21,7 +21,9 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex5_phase_blob.
 import numpy as np
 
 import engine
-from curriculum.common import output_folder_problem, write_atomic
+import engine_recording
+from curriculum.common import write_atomic
+from curriculum.common.outputs import folder_problem, one_line_failures
 from exercises.support.predict import OneOf, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
@@ -159,7 +161,7 @@ def record(path: Path, table: dict) -> None:
         axes = [[[-1.8, 0.0], [1.8, 0.0]], [[0.0, 3.2], [0.0, -3.2]]]
         recording.log("phase/axes", rr.LineStrips2D(axes, colors=[[120, 120, 120]], labels=["x", "v_x"]), static=True)
         for name, row in table.items():
-            color = engine.COLORS[name]
+            color = engine_recording.COLORS[name]
             recording.log(f"area/{name}", rr.SeriesLines(colors=[color], names=[name]), static=True)
             for i in range(0, len(row["areas"]), RECORD_EVERY):
                 edge = np.stack([row["x"][i, ::every_k], -row["v"][i, ::every_k]], axis=1)
@@ -205,6 +207,17 @@ class EachOf:
         return prediction
 
 
+def rrd_problem(path: Path) -> str | None:
+    """Why the recording cannot go to `path`, or None: it must be an .rrd file in a folder we can write,
+    so that a slip such as `--rrd README.md` never overwrites something else."""
+    if path.suffix != ".rrd":
+        return f"{path} does not end in .rrd"
+    if path.exists() and not path.is_file():
+        return f"{path} is not a file"
+    return folder_problem(path.parent, [path.name])
+
+
+@one_line_failures("exercises.ex5_phase_blob")
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="exercises.ex5_phase_blob", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -215,7 +228,7 @@ def main(argv=None) -> int:
                 " under each integrator. What happens to the disc's area under each one?",
                 EachOf(list(engine.INTEGRATORS), CHOICES), argv)
     args = parser.parsed
-    problem = output_folder_problem(args.rrd.parent) if args.rerun else None
+    problem = rrd_problem(args.rrd) if args.rerun else None
     if problem:
         parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")
 
