@@ -296,7 +296,7 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
     seen = []
     theirs = on_probes(reference)
     off = float(np.max(np.abs(mine - theirs) / np.maximum(1.0, np.abs(theirs))))
-    if off < 1e-3:
+    if off < 1e-3 and abs(measured - nominal_order) < 0.5:  # right order, a few digits off: rounding, not a method
         seen.append(f"Its numbers are close to {method}'s but not equal: they agree to about {-math.log10(off):.0f}"
                     " digits, where the same arithmetic agrees to 15. Is a constant rounded (0.1667 for 1/6, 0.33 for"
                     " 1/3), or is the arithmetic in single precision (float32)?")
@@ -341,6 +341,10 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
     if name == "rk4_step" and 3.7 < heavy_order < 4.4:
         seen.insert(0, "It is fourth order (halving dt divides its error by"
                        f" {heavy:.1f} on a spring), but it is not the classical RK4.")
+    elif name == "rk4_step" and 1.7 < heavy_order < 2.4 and typical == nominal_calls:
+        seen.insert(0, "It samples four slopes but comes out second order (halving dt divides its error by"
+                       f" {heavy:.1f} on a spring): the slopes are probably fine and the blend is not. RK4 weights"
+                       " them 1-2-2-1 over 6: the two midpoint slopes count double, the end slopes once.")
     return f"not {method} yet, and not one of the usual mistakes. What the checker measured: " + " ".join(seen)
 
 
@@ -372,6 +376,10 @@ def scale_sentence(name: str, method: str, s: float, k: int) -> str:
         times = f", times {s:.4g}" if abs(s - 1) > 1e-6 else ""
         return (f"every change your step makes is {method}'s divided by dt{times}: dt is missing from your update."
                 " A slope is a rate; multiply it by dt to get a change.")
+    if abs(s - 1) < 0.01:  # a hair off on every system: a constant written as a rounded decimal
+        return (f"every change your step makes is {s:.6g} times {method}'s, on every system: close to 1, but not 1."
+                " Is a fraction written as a rounded decimal (0.1667 for 1/6, 0.333 for 1/3)? Write it as a"
+                " division, dt / 6, and the numbers come out exact.")
     if name == "rk4_step":
         return (f"every change your step makes is {s:.4g} times RK4's, on every system: the weights of your final"
                 f" blend add up to {s:.4g}, not 1. (k1 + 2 k2 + 2 k3 + k4) counts six slopes, so it is multiplied"
