@@ -37,10 +37,16 @@ class OneOf:
 
     def parse(self, text: str) -> str:
         key = _name_key(text)
+        key = ALIASES.get(key, key)
         for name in self.names:
             if _name_key(name) == key:
                 return name
         raise ValueError(f"{text.strip()!r} is not {self.forms}")
+
+
+# What people call the integrators and the answers, as the tables and the chapter write them.
+ALIASES = {"explicit_euler": "euler", "forward_euler": "euler", "symplectic_euler": "semi_implicit",
+           "semi_implicit_euler": "semi_implicit", "grow": "grows", "stay": "stays", "shrink": "shrinks"}
 
 
 class Number:
@@ -146,6 +152,8 @@ def _name_key(text: str) -> str:
 
 def _number(text: str) -> int:
     """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' -> 10000; ValueError if not a whole number."""
+    if re.fullmatch(r"\d{1,3}(\.\d{3})+", text.strip()):  # 10.000: ten thousand in much of Europe, ten here
+        raise ValueError(f"{text.strip()!r} could be read two ways: write it without the dot")
     cleaned = re.sub(r"(?<=\d)[,_ ](?=\d{3}\b)", "", text.strip())
     try:
         value = float(cleaned)
