@@ -132,7 +132,15 @@ def test_unwritable_recording_path_gets_one_line_before_measuring(tmp_path):
     blocker.write_text("")
     result = run_ex5("--predict", "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(blocker / "x.rrd"))
     assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1
-    assert "not a writable directory" in result.stderr
+    assert "a_file is a file" in result.stderr
+
+
+@pytest.mark.parametrize("target", ["README.md", "exercises"])
+def test_a_recording_path_that_is_not_an_rrd_is_refused_before_anything_is_overwritten(target):
+    before = (REPO / target).stat().st_mtime_ns
+    result = run_ex5("--predict", "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", target)
+    assert result.returncode == 2 and result.stdout == "" and "does not end in .rrd" in result.stderr
+    assert (REPO / target).stat().st_mtime_ns == before
 
 
 def test_graded_both_ways(capsys):
