@@ -18,6 +18,7 @@ import numpy as np
 
 import engine
 from curriculum.common.cli import OneLineParser
+from curriculum.common.outputs import one_line_failures
 from exercises.support.predict import OneOf, ask, explain, verdict
 
 CHOICES = list(engine.INTEGRATORS)
@@ -47,6 +48,7 @@ def runaway(table: dict) -> str:
     raise AssertionError("no integrator ran away: the physics has changed")
 
 
+@one_line_failures("exercises.ex1_runaway")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex1_runaway", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)

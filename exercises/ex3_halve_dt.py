@@ -22,6 +22,7 @@ import numpy as np
 
 import engine
 from curriculum.common.cli import OneLineParser
+from curriculum.common.outputs import one_line_failures
 from exercises.support.exact import kepler_position, spring_position
 from exercises.support.predict import PerName, ask, explain
 
@@ -118,6 +119,7 @@ def story(system_name: str, errors: dict) -> list:
     return lines
 
 
+@one_line_failures("exercises.ex3_halve_dt")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex3_halve_dt", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)

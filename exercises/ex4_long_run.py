@@ -22,6 +22,7 @@ import numpy as np
 
 import engine
 from curriculum.common.cli import OneLineParser
+from curriculum.common.outputs import one_line_failures
 from exercises.support.exact import orbit_period
 from exercises.support.predict import Number, ask, explain, verdict
 
@@ -81,6 +82,7 @@ def show_progress(done: int, crossed: np.ndarray) -> None:
     print(f"\r{line:<72}", end="" if waiting else "\r", file=sys.stderr, flush=True)
 
 
+@one_line_failures("exercises.ex4_long_run")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex4_long_run", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -22,6 +22,7 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex6_stiff_dampi
 import numpy as np
 
 import engine
+from curriculum.common.outputs import one_line_failures
 from exercises.support import stability_map
 from exercises.support.predict import OneOf, ask, explain, verdict
 
@@ -33,18 +34,20 @@ MAP_DAMPING = [0.0, 0.001, 0.01, 0.1, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 5.0, 10.0, 1
 
 
 class SomeOf:
-    """Any number of names from a list, or none: 'rk4, implicit', 'RK4 and implicit', 'none'."""
+    """Any number of names from a list, or none, or all: 'rk4, implicit', 'RK4 and implicit', 'none', 'all'."""
 
     def __init__(self, names):
         self.names = list(names)
         self.forms = (f"the ones that stay bounded, from {', '.join(self.names)}, separated by commas"
-                      " (or 'none')")
+                      " (or 'none', or 'all')")
 
     def parse(self, text: str) -> frozenset:
         text = re.sub(r"semi[\s_-]+implicit", "semi_implicit", text.strip().lower())  # one name, however spaced
         words = [word for word in re.split(r"[,;+\s]+|\band\b", text) if word]
         if words == ["none"]:
             return frozenset()
+        if words == ["all"]:
+            return frozenset(self.names)
         one = OneOf(self.names)
         try:
             chosen = [one.parse(word) for word in words]
@@ -89,6 +92,7 @@ def print_map(grid: dict, here: tuple[int, int]) -> None:
     print(f"columns: c = dt b/m = {', '.join(f'{c:g}' for c in MAP_DAMPING)}")
 
 
+@one_line_failures("exercises.ex6_stiff_damping")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="exercises.ex6_stiff_damping", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)

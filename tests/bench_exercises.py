@@ -23,6 +23,8 @@ COMMANDS = [
     "python -m exercises.ex3_halve_dt --predict euler=1,semi_implicit=1,rk4=1",
     "python -m exercises.ex3_halve_dt --predict euler=1,semi_implicit=1,rk4=1 --system spring",
     "python -m exercises.ex4_long_run --predict 10",
+    "python -m exercises.ex5_phase_blob --predict euler=stays,semi_implicit=stays,rk4=stays",
+    "python -m exercises.ex6_stiff_damping --predict none",
 ]
 
 
