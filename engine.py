@@ -98,8 +98,8 @@ def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) 
         v0 = np.array([0.0, 1.0 + rng.uniform(-0.05, 0.05), 0.0])
 
         def force(q, v):
-            r = np.sqrt(dot3(q, q))[..., None]  # distance to the attractor, one per body
-            return -mu * m * q / (r * r * r)  # magnitude mu m / r^2, pointing at the attractor
+            r = np.sqrt(dot3(q, q))  # distance to the attractor, one per body
+            return -mu * m * q / (r * r * r)[..., None]  # magnitude mu m / r^2, pointing at the attractor
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) - mu * m / np.sqrt(dot3(q, q))  # kinetic + gravitational

@@ -114,6 +114,7 @@ def readme_commands():
     return [line.split("&&")[-1].strip() for line in lines if "python " in line]
 
 
+@pytest.mark.slow
 def test_readme_engine_commands_run_as_written(tmp_path):
     commands = [c for c in readme_commands() if c.startswith("python engine.py")]
     assert len(commands) >= 5

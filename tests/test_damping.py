@@ -226,6 +226,7 @@ def agree(measured, analytic):
     return all(m == a or abs(m - a) <= 1e-3 * abs(a) + 1e-6 for m, a in zip(measured, analytic, strict=True))
 
 
+@pytest.mark.slow
 def test_measured_bounds_match_the_analytic_ones_on_the_courses_spring():
     """The course's spring at dt 0.01 (w = 0.02), every integrator; the slow test does the whole table."""
     ws = [0.02]

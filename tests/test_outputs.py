@@ -24,6 +24,10 @@ from conftest import REPO
 from curriculum.common import outputs
 from curriculum.common.outputs import OutputError, content_id, folder_problem, read_run, write_run
 
+# Every case here starts fresh interpreters, full disks, concurrent writers and signals: the
+# maintainers' robustness suite, run in full by CI (`pytest`), not by the quick `pytest -m "not slow"`.
+pytestmark = pytest.mark.slow
+
 PAIR = ("engine.rrd", "metrics.json")  # recording first, the index last: the order engine.py writes them
 
 
