@@ -15,7 +15,6 @@ per member-step, which does not depend on how many members are timed (every memb
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -23,20 +22,13 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE.parent), str(HERE)]
 
+from bench import best_seconds  # noqa: E402  (one timing helper for every bench)
+
 import engine  # noqa: E402
 
 MEMBERS, STEPS, DT = 10_000, 2_000, 0.01
 SAMPLE = 100  # members timed one by one (single runs, rollout) unless --full
 SIZES = [1, 10, 100, 1_000, 10_000, 100_000]
-
-
-def best_seconds(fn, repeats=3):
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def ensemble_ns(system_name, integrator, members, steps, repeats=3):
