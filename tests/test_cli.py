@@ -81,6 +81,7 @@ def test_long_run_shows_progress_on_stderr_and_smoke_stays_quiet(tmp_path):
     assert smoke.returncode == 0 and smoke.stderr == ""
 
 
+@pytest.mark.slow
 def test_ctrl_c_leaves_previous_metrics_intact(tmp_path):
     assert run_engine("--smoke", "--no-rerun", "--out", tmp_path).returncode == 0
     before = (tmp_path / "metrics.json").read_bytes()

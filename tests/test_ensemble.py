@@ -42,6 +42,7 @@ def members_vs_singles(extra_env):
     return result.stdout
 
 
+@pytest.mark.slow
 def test_every_member_is_its_single_run_bit_for_bit_at_every_simd_level():
     """All three systems x three integrators: positions, velocities and energies of each member equal the
     member's own single run byte for byte, with numpy's AVX2/AVX-512 loops on and off (the batch takes

@@ -302,6 +302,7 @@ def test_ex2_planted_file_gets_the_message_that_names_it(planted, capsys, monkey
         assert code == 1 and f"{other}: solved" in out and f"{wrong}: solved" not in out
 
 
+@pytest.mark.slow
 def test_ex2_a_step_that_never_returns_is_stopped_and_the_other_still_judged(capsys, monkeypatch):
     monkeypatch.setattr(check_ex2, "TIME_LIMIT", 2.0)
     code, out = check(PLANTED / "semi_endless.py", capsys)
@@ -309,6 +310,7 @@ def test_ex2_a_step_that_never_returns_is_stopped_and_the_other_still_judged(cap
     assert "rk4_step: solved" in out
 
 
+@pytest.mark.slow
 def test_ex2_a_file_whose_import_never_ends_is_stopped_once_for_both(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(check_ex2, "TIME_LIMIT", 2.0)
     (tmp_path / "slow_import.py").write_text("import time\n\ntime.sleep(600)  # a trial run left at the top level\n")
