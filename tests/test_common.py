@@ -8,7 +8,6 @@ import pytest
 from curriculum.common import (
     OneLineParser,
     int_in,
-    output_folder_problem,
     positive_finite,
     progress_printer,
     wall_clock,
@@ -47,16 +46,6 @@ def test_int_in_reads_numbers_as_people_write_them():
         parse("0")
     with pytest.raises(argparse.ArgumentTypeError, match="0 or more"):
         int_in(0, None, "--seed")("-1")
-
-
-def test_output_folder_problem_looks_but_creates_nothing(tmp_path):
-    assert output_folder_problem(tmp_path) is None
-    assert output_folder_problem(tmp_path / "new" / "deeper") is None
-    assert not (tmp_path / "new").exists()
-    blocker = tmp_path / "file"
-    blocker.write_text("x")
-    assert "is not a writable directory" in output_folder_problem(blocker)
-    assert "cannot be created" in output_folder_problem(blocker / "sub")
 
 
 class Terminal(io.StringIO):

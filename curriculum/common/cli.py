@@ -1,15 +1,13 @@
 """Command-line plumbing every chapter script shares, so the chapter files keep only their own flags.
 
-    from curriculum.common.cli import OneLineParser, positive_finite, int_in, output_folder_problem
+    from curriculum.common.cli import OneLineParser, positive_finite, int_in, progress_printer
 
 Bad input gets one line naming the problem and exit code 2, never a usage block or a traceback.
 """
 
 import argparse
 import math
-import os
 import sys
-from pathlib import Path
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -48,18 +46,6 @@ def int_in(low: int, high: int | None, what: str):
         return value
 
     return parse
-
-
-def output_folder_problem(out: Path) -> str | None:
-    """Why `out` cannot hold a run's files, or None if it can. Looks only: creates nothing."""
-    if out.exists():
-        return None if out.is_dir() and os.access(out, os.W_OK | os.X_OK) else f"{out} is not a writable directory"
-    parent = out.parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
-        return f"{out} cannot be created: {parent} is not a writable directory"
-    return None
 
 
 def progress_printer(label: str, total: int, stream=None):
