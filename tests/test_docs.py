@@ -5,6 +5,7 @@ test follows; the texts searched are README.md, exercises/README.md, exercises/H
 --help, module docstring and bare question.
 """
 
+import ast
 import contextlib
 import importlib
 import io
@@ -18,6 +19,7 @@ import pytest
 from conftest import REPO
 
 ANSWERS = (REPO / "exercises" / "solutions" / "ANSWERS.md").read_text()
+PRISTINE_STUB = REPO / "tests" / "pristine" / "ex2_integrators.py"
 PREDICT_THEN_RUN = ["ex1_runaway", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob", "ex6_stiff_damping"]
 EXERCISE_MODULES = [*PREDICT_THEN_RUN, "check_ex2", "ex2_integrators", "support.predict", "support.exact"]
 
@@ -80,7 +82,10 @@ def exercise_texts() -> dict:
 
     texts = {name: without_output_blocks((REPO / name).read_text())
              for name in ("README.md", "exercises/README.md", "exercises/HINTS.md")}
-    for module_name in EXERCISE_MODULES:
+    for module_name in EXERCISE_MODULES:  # the stub as a student first opens it: the pristine copy, not their edits
+        if module_name == "ex2_integrators":
+            texts["exercises/ex2_integrators.py docstring"] = ast.get_docstring(ast.parse(PRISTINE_STUB.read_text()))
+            continue
         module = importlib.import_module(f"exercises.{module_name}")
         texts[f"exercises/{module_name}.py docstring"] = module.__doc__
     for module_name in [*PREDICT_THEN_RUN, "check_ex2"]:

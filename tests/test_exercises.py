@@ -193,8 +193,11 @@ def instructions(source):
 
 
 def test_ex2_the_students_file_still_carries_the_stubs_instructions():
-    """The pristine copy is what the tests grade, so it must stay the stub a student starts from. The student may
-    fill in the bodies and add helpers; if the file does not parse mid-edit, the checker is what tells them."""
+    """The pristine copy is what the tests grade, so it must stay the stub a student starts from: a maintainer
+    who edits the stub edits tests/pristine/ too. Once a student has started (a TODO filled in), their file is
+    theirs, docstring or not, and is not judged here."""
+    if STUDENT.read_text().count("raise NotImplementedError") < 2:
+        pytest.skip("exercises/ex2_integrators.py has been worked on: only the untouched stub is compared")
     try:
         student = instructions(STUDENT.read_text())
     except SyntaxError:
