@@ -298,8 +298,10 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
     off = float(np.max(np.abs(mine - theirs) / np.maximum(1.0, np.abs(theirs))))
     if off < 1e-3 and abs(measured - nominal_order) < 0.5:  # right order, a few digits off: rounding, not a method
         seen.append(f"Its numbers are close to {method}'s but not equal: they agree to about {-math.log10(off):.0f}"
-                    " digits, where the same arithmetic agrees to 15. Is a constant rounded (0.1667 for 1/6, 0.33 for"
-                    " 1/3), or is the arithmetic in single precision (float32)?")
+                    " digits, where the same arithmetic agrees to 15. "
+                    + ("Is a constant rounded (0.1667 for 1/6, 0.33 for 1/3), or is the arithmetic in single"
+                       " precision (float32)?" if name == "rk4_step" else
+                       "Is the arithmetic in single precision (float32), or a number rounded somewhere?"))
     if by_case["spring"] and not by_case["orbit"]:
         seen.append("It is right on the chapter's spring only: does it compute a force of its own (like -4 q)"
                     " instead of using force(q, v)?")
@@ -325,7 +327,7 @@ def unrecognised(name: str, data: dict, right: np.ndarray, factor: float, measur
     if math.isfinite(measured) and measured < 0.3:
         seen.append(f"On the damped spring (exact motion known) halving dt leaves its error where it was (divided by"
                     f" {factor:.2f}): it does not converge to the true motion, whatever dt; {method}'s error is divided"
-                    f" by {2 ** nominal_order}. Look for a sign, or a term that is missing its dt.")
+                    f" by {2 ** nominal_order}. Look for a sign, a term that is missing its dt, or a term too many.")
     elif math.isfinite(measured):
         seen.append(f"On the damped spring (exact motion known) halving dt divides its error by {factor:.2f}"
                     f" (order {measured:.2f}); {method}'s is divided by {2 ** nominal_order} (order {nominal_order}).")

@@ -62,7 +62,8 @@ def progress_printer(label: str, total: int, stream=None):
         if done < total and done / total < shown[0] + 0.05:
             return
         shown[0] = done / total
-        text = f"  {label:<14}{done / total:>5.0%} of {total:,} steps"
+        percent = 100 * done // total  # rounded down: 100% only when the last step is done
+        text = f"  {label:<14}{percent:>4}% of {total:,} steps"
         if in_place:
             print("\r" + text, end="\n" if done >= total else "", file=stream, flush=True)
         else:
