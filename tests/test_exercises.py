@@ -259,6 +259,8 @@ PLANTED_MESSAGES = {
     "rk4_weights_over_4.py": ("rk4_step", "the weights of your final blend add up to 1.5, not 1"),
     "rk4_weights_over_3.py": ("rk4_step", "the weights of your final blend add up to 2, not 1"),
     "rk4_missing_dt.py": ("rk4_step", "your final update has no dt in it"),
+    "rk4_k2_full_step.py": ("rk4_step", "your k2 is sampled a whole dt out; it is a midpoint slope"),
+    "rk4_k3_full_step.py": ("rk4_step", "your k3 is sampled a whole dt out; it is a midpoint slope"),
     "rk4_rounded_sixth.py": ("rk4_step", "close to 1, but not 1. Is a fraction written as a rounded decimal"),
     "rk4_weights_2112.py": ("rk4_step", "comes out second order (halving dt divides its error by 4.1 on a spring): the"
                             " slopes are probably fine and the blend is not"),

@@ -145,6 +145,12 @@ RK4_MISTAKES = [
     (runge_kutta([[], [1], [0, 1], [0, 0, 1]], RK4_WEIGHTS),
      "your midpoint stages are a full dt out. k2 is the slope half a step along k1, at q + (dt/2) k1q,"
      " v + (dt/2) k1v; k3 half a step along k2; only k4 goes the whole dt."),
+    (runge_kutta([[], [1], [0, 0.5], [0, 0, 1]], RK4_WEIGHTS),
+     "your k2 is sampled a whole dt out; it is a midpoint slope, half a step along k1:"
+     " (q + dt/2 k1q, v + dt/2 k1v). Only k4 goes the whole dt."),
+    (runge_kutta([[], [0.5], [0, 1], [0, 0, 1]], RK4_WEIGHTS),
+     "your k3 is sampled a whole dt out; it is a midpoint slope, half a step along k2:"
+     " (q + dt/2 k2q, v + dt/2 k2v). Only k4 goes the whole dt."),
     (runge_kutta([[], [0.5], [0.5], [0, 0, 1]], RK4_WEIGHTS),
      "your k3 steps along k1 instead of k2, so k3 is a copy of k2. The third sample is half a step along the"
      " SECOND slope: (q + dt/2 k2q, v + dt/2 k2v)."),
