@@ -47,6 +47,7 @@ except KeyboardInterrupt:
 
 # --- settings ---
 
+DEFAULT_STEPS = 2000  # the chapter's run: 20 s of sim time at dt 0.01
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
 MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
@@ -553,8 +554,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help=f"damped_spring's b in N s/m (default {DAMPING}); 300 at dt 0.01 is the stiff case")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
                         help="timestep in sim seconds; raise it and every drift grows (default 0.01)")
-    parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=2000,
-                        help=f"steps per integrator, 1 to {MAX_STEPS:,} (default 2000)")
+    parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=None,
+                        help=f"steps per integrator, 1 to {MAX_STEPS:,} (default {DEFAULT_STEPS:,})")
     parser.add_argument("--smoke", action="store_true",
                         help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
     parser.add_argument("--ensemble", type=int_in(1, None, "--ensemble"), default=None, metavar="N",
@@ -576,9 +577,13 @@ def parse_args(argv=None) -> argparse.Namespace:
     if args.system not in DAMPED_SYSTEMS and args.integrator == "implicit":
         parser.error(f"argument --integrator: implicit needs a velocity-dependent force, so --system"
                      f" {' or '.join(DAMPED_SYSTEMS)}")
+    if args.smoke and args.steps is not None:
+        parser.error(f"argument --steps: --smoke always runs {SMOKE_STEPS} steps (so two smoke runs can be diffed);"
+                     " drop one of the two")
     problem = folder_problem(args.out, [METRICS_FILE, RECORDING_FILE] if args.rerun else [METRICS_FILE])
     if problem:
         parser.error(f"argument --out: {problem}")
+    args.steps = args.steps or DEFAULT_STEPS
     steps = SMOKE_STEPS if args.smoke else args.steps
     if args.ensemble and ensemble_bytes(steps, args.ensemble) > ENSEMBLE_MEMORY:
         parser.error(f"argument --ensemble: {args.ensemble:,} members x {steps:,} steps needs about"

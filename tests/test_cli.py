@@ -42,6 +42,7 @@ BAD_INPUT = {
     "too many steps": (["--steps", "10000001"], "--steps"),
     "negative seed": (["--seed", "-1"], "--seed"),
     "unknown system": (["--system", "pendulum"], "--system"),
+    "smoke with its own step count": (["--smoke", "--steps", "50"], "--steps"),
 }
 
 
