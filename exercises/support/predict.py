@@ -78,7 +78,8 @@ class PerName:
 
     def parse(self, text: str) -> dict:
         names, prediction = OneOf(self.names), {}
-        for item in filter(None, (part.strip() for part in re.split(r"[,;]", text))):
+        # commas or semicolons between items; a space also does, where a value ends and a name begins
+        for item in filter(None, (part.strip() for part in re.split(r"[,;]|(?<=\d)\s+(?=[A-Za-z])", text))):
             match = re.fullmatch(r"([^=:]*?)\s*[=:]\s*(.*)", item)
             if not match:
                 raise ValueError(f"{item!r} has no '=': expected {self.forms}")
