@@ -463,20 +463,28 @@ def simpson(values, h: float) -> float:
 
 
 def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: dict,
-                  damping: float | None = None, solution: dict | None = None) -> dict:
+                  damping: float | None = None, solution: dict | None = None, ensemble: dict | None = None) -> dict:
     """The metrics.json payload: no wall-clock, nothing machine-dependent.
 
-    A damped system adds its damping and "solution": each integrator against the closed form.
+    A damped system adds its damping and "solution": each integrator against the closed form;
+    an --ensemble run adds its "ensemble" block.
     """
-
-    def rounded(block):  # 12 decimals, not fewer: RK4's drift is ~1e-11 and rounding it to zero would erase it
-        return {name: {key: round(value, 12) if isinstance(value, float) else value for key, value in d.items()}
-                for name, d in block.items()}
-
     metrics = {"system": system_name, "dt": dt, "steps": steps, "seed": seed, "drift": rounded(drifts)}
     if solution is not None:
         metrics.update(damping=damping, solution=rounded(solution))
+    if ensemble is not None:
+        metrics["ensemble"] = rounded(ensemble)
     return metrics
+
+
+def rounded(value):
+    """Every float in `value` (through dicts and lists) to 12 decimals, not fewer: RK4's drift is ~1e-11,
+    and rounding it to zero would erase it."""
+    if isinstance(value, dict):
+        return {key: rounded(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [rounded(item) for item in value]
+    return round(value, 12) if isinstance(value, float) else value
 
 
 def metrics_text(metrics: dict) -> str:
@@ -645,12 +653,9 @@ def main(argv=None) -> int:
         drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
         if "dissipation" in system:  # a damped system: the closed-form solution is its referee
             solution[name] = against_exact(system, positions, velocities, energies, kept_steps(steps, every), args.dt)
+    block = ensemble_block(args.system, seeds, ensemble) if args.ensemble else None
     metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts, damping if solution else None,
-                            solution or None)
-    if args.ensemble:
-        block = ensemble_block(args.system, seeds, ensemble)
-        # every float to 12 decimals, as in drift
-        metrics["ensemble"] = json.loads(json.dumps(block), parse_float=lambda text: round(float(text), 12))
+                            solution or None, block)
     metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
     files, note = {}, None
     if args.rerun:
