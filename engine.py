@@ -80,8 +80,8 @@ DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (
 
 def dot3(a, b):
     """a . b over the last axis, summed in a fixed order: (3,) gives a number, (N, 3) gives (N,)."""
-    products = a * b
-    return products[..., 0] + products[..., 1] + products[..., 2]
+    x, y, z = (a * b).T  # the three products: numbers for one body, columns for a batch
+    return x + y + z
 
 
 def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) -> dict:
@@ -132,9 +132,10 @@ def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) 
         q0 = np.array([0.0, 0.0, 10.0])
         v0 = np.array([3.0 + rng.uniform(-0.5, 0.5), 0.0, 0.0])
         gravity = np.array([0.0, 0.0, -g])
+        weight = m * gravity
 
         def force(q, v):
-            return np.broadcast_to(m * gravity, q.shape)  # the same weight on every body
+            return np.full(q.shape, weight)  # the same weight on every body
 
         def energy(q, v):
             return 0.5 * m * dot3(v, v) + m * g * q[..., 2]  # kinetic + height
