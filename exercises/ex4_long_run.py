@@ -95,7 +95,8 @@ def main(argv=None) -> int:
     period = orbit_period(system)
     dts = [*TIMESTEPS, CHAPTER_DT]
     bands = semi_implicit_bands(system, dts, period)
-    crossed, chapter_error = rk4_crossovers(system, dts, np.append(bands[:-1], np.inf), progress=show_progress)
+    progress = show_progress if sys.stderr.isatty() else None  # redrawn in place: for a terminal, not a log
+    crossed, chapter_error = rk4_crossovers(system, dts, np.append(bands[:-1], np.inf), progress)
 
     print(f"orbit, seed 0: one orbit is {period:.3f} s of simulated time")
     print(f"{'dt':>6}{'semi band':>12}{'RK4 crosses at step':>22}{'orbits':>10}")
