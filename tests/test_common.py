@@ -25,6 +25,18 @@ def test_one_line_parser_exits_2_with_one_line(capsys):
     assert err == "chapter.py: error: argument --n: --n must be from 1 to 10, got 11 (see --help)\n"
 
 
+def test_a_mistyped_flag_is_named_with_the_flag_it_looks_like(capsys):
+    parser = OneLineParser(prog="chapter.py")
+    for flag in ("--system", "--steps", "--seed", "--out"):
+        parser.add_argument(flag)
+    for typed, says in [(["--sytem", "orbit"], "--sytem orbit; did you mean --system?"),
+                        (["--sytem=orbit", "--stpes", "5"], "--sytem=orbit --stpes 5; did you mean --system and --steps?"),
+                        (["--foo"], "--foo")]:  # nothing close: no guess
+        with pytest.raises(SystemExit):
+            parser.parse_args(typed)
+        assert capsys.readouterr().err == f"chapter.py: error: unrecognized arguments: {says} (see --help)\n"
+
+
 @pytest.mark.parametrize("text, value", [("0.01", 0.01), ("1e-3", 1e-3), ("7", 7.0)])
 def test_positive_finite_accepts(text, value):
     assert positive_finite("dt")(text) == value
@@ -38,12 +50,17 @@ def test_positive_finite_refuses(text):
 
 def test_int_in_reads_numbers_as_people_write_them():
     parse = int_in(1, 10_000_000, "--steps")
-    assert parse("10,000") == parse("10_000") == parse("10000") == 10_000
-    for bad in ("1.5", "1e4", "", "ten"):
+    assert parse("10,000") == parse("10_000") == parse("10000") == parse("1e4") == parse(" 1.0e4 ") == 10_000
+    assert parse("2.5e3") == 2_500
+    for bad in ("1.5", "1.5e0", "", "ten", "nan", "inf", "1e999999", "0x10"):
         with pytest.raises(argparse.ArgumentTypeError, match="not a whole number"):
             parse(bad)
-    with pytest.raises(argparse.ArgumentTypeError, match="from 1 to 10,000,000"):
+    with pytest.raises(argparse.ArgumentTypeError, match="from 1 to 10,000,000, got 0$"):
         parse("0")
+    with pytest.raises(argparse.ArgumentTypeError, match="got 12,000,000$"):
+        parse("1.2e7")
+    with pytest.raises(argparse.ArgumentTypeError, match="got 1e4000$"):  # as typed, not 4,001 digits
+        parse("1e4000")
     with pytest.raises(argparse.ArgumentTypeError, match="0 or more"):
         int_in(0, None, "--seed")("-1")
 

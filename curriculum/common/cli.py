@@ -6,15 +6,26 @@ Bad input gets one line naming the problem and exit code 2, never a usage block 
 """
 
 import argparse
+import decimal
+import difflib
 import math
 import sys
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """An ArgumentParser whose errors are one line: `prog: error: what is wrong (see --help)`."""
+    """An ArgumentParser whose errors are one line: `prog: error: what is wrong (see --help)`.
+
+    A mistyped flag is named with the flag it most looks like: `--sytem orbit` gets "did you mean --system?".
+    """
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+        hint = ""
+        if message.startswith("unrecognized arguments: "):
+            typed = [word.split("=")[0] for word in message.split()[2:] if word.startswith("--")]
+            known = [flag for flag in self._option_string_actions if flag.startswith("--")]
+            guesses = [match for word in typed for match in difflib.get_close_matches(word, known, n=1, cutoff=0.75)]
+            hint = f"; did you mean {' and '.join(guesses)}?" if guesses else ""
+        self.exit(2, f"{self.prog}: error: {message}{hint} (see --help)\n")
 
 
 def positive_finite(what: str):
@@ -33,16 +44,19 @@ def positive_finite(what: str):
 
 
 def int_in(low: int, high: int | None, what: str):
-    """Argument type: a whole number from `low` to `high` (no upper bound if high is None)."""
+    """Argument type: a whole number from `low` to `high` (no upper bound if high is None).
+
+    Written as people write them: `1000000`, `1,000,000`, `1_000_000`, `1e6`, `2.5e3`.
+    """
 
     def parse(text: str) -> int:
-        try:
-            value = int(text.replace("_", "").replace(",", ""))
-        except ValueError:
+        value = whole_number(text)
+        if value is None:
             raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
         if value < low or (high is not None and value > high):
             bound = f"from {low:,} to {high:,}" if high is not None else f"{low:,} or more"
-            raise argparse.ArgumentTypeError(f"{what} must be {bound}, got {value:,}")
+            got = f"{value:,}" if len(str(abs(value))) <= 24 else text.strip()  # 1e999999 as typed
+            raise argparse.ArgumentTypeError(f"{what} must be {bound}, got {got}")
         return value
 
     return parse
@@ -70,3 +84,19 @@ def progress_printer(label: str, total: int, stream=None):
             print(text, file=stream, flush=True)
 
     return show
+
+
+def whole_number(text: str) -> int | None:
+    """The whole number `text` spells (`10,000`, `10_000`, `1e4`, `2.5e3`), or None if it spells none."""
+    plain = text.replace("_", "").replace(",", "").strip()
+    try:
+        return int(plain)
+    except ValueError:
+        pass
+    try:
+        number = decimal.Decimal(plain)
+    except decimal.InvalidOperation:
+        return None
+    if not number.is_finite() or number != number.to_integral_value() or number.adjusted() > 4300:
+        return None  # past 4,300 digits Python will not make it an int (and no flag wants one)
+    return int(number)
