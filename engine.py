@@ -35,6 +35,7 @@ try:  # loading takes a moment (numpy most of it): a Ctrl-C meanwhile ends in on
     from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
     from engine_ensembles import (
         ENSEMBLE_MEMORY,
+        ROUNDOFF_DRIFT,
         ensemble_block,
         ensemble_bytes,
         ensemble_every,
@@ -520,6 +521,8 @@ def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
             verdict = f"cannot judge, {' and '.join(diverged)} diverged (try a smaller --dt)"
         elif semi["rel_max"] > 1.0:  # an energy error past 100%: the bounded one has no band left to hold
             verdict = f"cannot judge, semi_implicit left its band (rel_max {semi['rel_max']:.3g}; try a smaller --dt)"
+        elif abs(euler["rel_final"]) < ROUNDOFF_DRIFT:  # too few steps, or too small a dt, for any drift to show
+            verdict = "cannot judge, every drift is round-off (more --steps or a larger --dt)"
         else:
             ok = abs(euler["rel_final"]) > semi["rel_max"] > rk4["rel_max"]
             verdict = "as expected" if ok else "UNEXPECTED: investigate"

@@ -13,6 +13,7 @@ import numpy as np
 CHAPTER_INTEGRATORS = ("euler", "semi_implicit", "rk4")  # the ordering the verdict checks is theirs
 ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
 ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
+ROUNDOFF_DRIFT = 1e-12  # explicit Euler drifting less than this: every drift is round-off, no ordering to judge
 SHOWN_MEMBERS = 20  # member paths an ensemble's recording draws: enough to see the spread, few enough to open
 
 
@@ -92,9 +93,13 @@ def ensemble_block(system_name: str, seeds: range, ensemble: dict) -> dict:
     if set(ensemble) == set(CHAPTER_INTEGRATORS) and system_name in ("orbit", "spring"):
         holds = ordering_holds(ensemble)
         diverged = np.any([s["diverged"] for s in ensemble.values()], axis=0)  # such a member cannot be judged
-        block["ordering_holds"] = int(np.count_nonzero(holds))
-        block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(~holds & ~diverged).tolist()]
-        block["ordering_not_judged"] = int(np.count_nonzero(diverged))
+        with np.errstate(invalid="ignore"):  # nor one whose drifts are all round-off (a diverged one's are NaN)
+            roundoff = ~diverged & (np.abs(ensemble["euler"]["rel_final"]) < ROUNDOFF_DRIFT)
+        judged = ~diverged & ~roundoff
+        block["ordering_holds"] = int(np.count_nonzero(holds & judged))
+        block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(~holds & judged).tolist()]
+        block["ordering_not_judged"] = int(np.count_nonzero(~judged))
+        block["ordering_roundoff_only"] = int(np.count_nonzero(roundoff))
     return block
 
 
@@ -113,9 +118,12 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
     if "ordering_holds" in block:
         print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: holds for {block['ordering_holds']:,}"
               f" of {len(seeds):,} seeds")
-        if block["ordering_not_judged"]:
-            print(f"  {block['ordering_not_judged']:,} diverged under some integrator and cannot be judged"
+        roundoff = block["ordering_roundoff_only"]
+        if block["ordering_not_judged"] - roundoff:
+            print(f"  {block['ordering_not_judged'] - roundoff:,} diverged under some integrator and cannot be judged"
                   " (try a smaller --dt)")
+        if roundoff:
+            print(f"  {roundoff:,} drifted by round-off only and cannot be judged (more --steps or a larger --dt)")
         fails = block["ordering_fails_for_seeds"]
         if fails:
             more = f" and {len(fails) - 10:,} more" if len(fails) > 10 else ""

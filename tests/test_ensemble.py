@@ -133,6 +133,15 @@ def test_ensemble_counts_diverged_members(tmp_path, capsys):
     assert "holds for 0 of 5 seeds" in out and "5 diverged under some integrator and cannot be judged" in out
 
 
+def test_ensemble_does_not_judge_members_whose_drifts_are_round_off(tmp_path, capsys):
+    assert engine.main(["--dt", "1e-9", "--steps", "10", "--ensemble", "5", "--no-rerun", "--out", str(tmp_path)]) == 0
+    block = json.loads((tmp_path / "metrics.json").read_text())["ensemble"]
+    assert block["ordering_holds"] == 0 and block["ordering_fails_for_seeds"] == []
+    assert block["ordering_not_judged"] == block["ordering_roundoff_only"] == 5
+    out = capsys.readouterr().out
+    assert "5 drifted by round-off only and cannot be judged" in out and "diverged under" not in out
+
+
 @pytest.mark.parametrize("members, why", [("0", "--ensemble must be 1 or more"), ("-3", "must be 1 or more"),
                                           ("many", "is not a whole number"), ("10000000", "GB")])
 def test_bad_ensemble_gets_one_line_and_touches_nothing(members, why, tmp_path):

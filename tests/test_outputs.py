@@ -750,6 +750,15 @@ def test_the_verdict_cannot_judge_when_semi_implicit_left_its_band(tmp_path, cap
                                          "try a smaller --dt)")
 
 
+@pytest.mark.parametrize("flags", [["--dt", "1e-300", "--steps", "3"], ["--dt", "1e-9", "--steps", "10"]])
+def test_the_verdict_cannot_judge_drifts_that_are_all_round_off(flags, tmp_path, capsys):
+    """Not 'UNEXPECTED': a run too short to drift (or one that did not move at all) has no ordering to judge."""
+    code, out, _ = run_here(capsys, *flags, "--no-rerun", "--out", tmp_path)
+    assert code == 0
+    assert out.splitlines()[-3].endswith("cannot judge, every drift is round-off (more --steps or a larger --dt)")
+    assert "as expected" in run_here(capsys, "--dt", "1e-6", "--steps", "100", "--no-rerun", "--out", tmp_path)[1]
+
+
 @pytest.mark.parametrize("system", ["orbit", "spring", "freefall"])
 def test_a_timestep_too_small_to_move_the_state_is_warned_about(system, tmp_path, capsys):
     code, _, err = run_here(capsys, "--dt", "1e-320", "--system", system, "--no-rerun", "--out", tmp_path)
