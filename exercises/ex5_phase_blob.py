@@ -24,7 +24,7 @@ import engine
 import engine_recording
 from curriculum.common import write_atomic
 from curriculum.common.outputs import folder_problem, one_line_failures
-from exercises.support.predict import OneOf, ask, explain, verdict
+from exercises.support.predict import OneOf, ask, explain, template, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
 STEPS, DT, COARSE_DT = 2000, 0.01, 0.1
@@ -188,7 +188,7 @@ class EachOf:
     def __init__(self, names, words):
         self.names, self.words = OneOf(names), OneOf(words)
         self.forms = (f"name=word for each of {', '.join(names)}, separated by commas,"
-                      f" each word one of {', '.join(words)} (e.g. {names[0]}=?, {names[-1]}=?)")
+                      f" each word one of {', '.join(words)} ({template(names, 'word')})")
 
     def parse(self, text: str) -> dict:
         prediction = {}
@@ -197,6 +197,9 @@ class EachOf:
             if not match:
                 raise ValueError(f"{item!r} has no '=': expected {self.forms}")
             name_text, word_text = match.groups()
+            if word_text.strip() in ("?", "..."):
+                raise ValueError(f"in {item!r}, put your word where the {word_text.strip()} is:"
+                                 f" one of {', '.join(self.words.names)}")
             name, word = self.names.parse(name_text), self.words.parse(word_text)
             if name in prediction:
                 raise ValueError(f"{name} is given twice")

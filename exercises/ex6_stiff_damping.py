@@ -49,12 +49,14 @@ class SomeOf:
         if words == ["all"]:
             return frozenset(self.names)
         one = OneOf(self.names)
-        try:
-            chosen = [one.parse(word) for word in words]
-        except ValueError:
-            raise ValueError(f"{text.strip()!r} is not {self.forms}") from None
+        chosen = []
+        for word in words:
+            try:
+                chosen.append(one.parse(word))
+            except ValueError:
+                raise ValueError(f"{word!r} is not an integrator here: answer with {self.forms}") from None
         if not chosen:
-            raise ValueError(f"an empty answer is not {self.forms}")
+            raise ValueError(f"the answer is empty: answer with {self.forms}")
         return frozenset(chosen)
 
 

@@ -29,9 +29,11 @@ def test_a_mistyped_flag_is_named_with_the_flag_it_looks_like(capsys):
     parser = OneLineParser(prog="chapter.py")
     for flag in ("--system", "--steps", "--seed", "--out"):
         parser.add_argument(flag)
-    for typed, says in [(["--sytem", "orbit"], "--sytem orbit; did you mean --system?"),
-                        (["--sytem=orbit", "--stpes", "5"], "--sytem=orbit --stpes 5; did you mean --system and --steps?"),
-                        (["--foo"], "--foo")]:  # nothing close: no guess
+    for typed, says in [
+        (["--sytem", "orbit"], "--sytem orbit; did you mean --system?"),
+        (["--sytem=orbit", "--stpes", "5"], "--sytem=orbit --stpes 5; did you mean --system and --steps?"),
+        (["--foo"], "--foo"),  # nothing close: no guess
+    ]:
         with pytest.raises(SystemExit):
             parser.parse_args(typed)
         assert capsys.readouterr().err == f"chapter.py: error: unrecognized arguments: {says} (see --help)\n"

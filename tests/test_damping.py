@@ -377,6 +377,7 @@ def test_ex6_reads_predictions_as_typed(said, right):
 def test_ex6_refuses_an_unknown_name_in_one_line(tmp_path):
     result = run_ex6("--predict", "rk4, verlet", cwd=tmp_path)
     assert result.returncode == 2 and len(result.stderr.splitlines()) == 1 and result.stdout == ""
+    assert "'verlet' is not an integrator here: answer with the ones that stay bounded, from euler," in result.stderr
 
 
 def test_ex6_answer_is_the_stability_map_at_its_damping():

@@ -76,6 +76,11 @@ def test_predictions_parse_as_people_type_them():
     for bad in ("ten", "1e400", "1.5", "12"):
         with pytest.raises(ValueError, match="written 10000, 10,000"):
             orbits.parse(bad)
+    assert integrators.parse("RK-4") == "rk4" and integrators.parse("explicit Euler") == "euler"
+    assert OneOf(["grows", "stays"]).forms == "one of grows, stays (any case)"  # no '_' to stand in for
+    assert "(like euler=A, semi_implicit=B, rk4=C, with your value for each letter)" in factors.forms
+    with pytest.raises(ValueError, match=r"in 'euler=\?', put your value where the \? is: one of 1, 2, 4"):
+        factors.parse("euler=?, semi_implicit=?, rk4=?")  # the template typed as it is shown
 
 
 def test_the_shell_splits_a_spaced_prediction_and_the_exercise_joins_it(tmp_path):

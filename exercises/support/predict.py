@@ -29,11 +29,12 @@ from pathlib import Path
 
 
 class OneOf:
-    """One name from a fixed list: 'Euler', 'semi-implicit', ' RK4 ' all parse."""
+    """One name from a fixed list: 'Euler', 'semi-implicit', ' RK4 ', 'RK-4' all parse."""
 
     def __init__(self, names):
         self.names = list(names)
-        self.forms = f"one of {', '.join(self.names)} (any case; '-' or a space may stand for '_')"
+        spelling = "; '-' or a space may stand for '_'" if any("_" in name for name in self.names) else ""
+        self.forms = f"one of {', '.join(self.names)} (any case{spelling})"
 
     def parse(self, text: str) -> str:
         key = _name_key(text)
@@ -45,8 +46,8 @@ class OneOf:
 
 
 # What people call the integrators and the answers, as the tables and the chapter write them.
-ALIASES = {"explicit_euler": "euler", "forward_euler": "euler", "symplectic_euler": "semi_implicit",
-           "semi_implicit_euler": "semi_implicit", "grow": "grows", "stay": "stays", "shrink": "shrinks"}
+ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler", "symplecticeuler": "semiimplicit",
+           "semiimpliciteuler": "semiimplicit", "grow": "grows", "stay": "stays", "shrink": "shrinks"}
 
 
 class Number:
@@ -74,7 +75,7 @@ class PerName:
         self.names, self.values = list(names), list(values)
         self.forms = (f"name=value for each of {', '.join(self.names)}, separated by commas,"
                       f" each value one of {', '.join(f'{v:g}' for v in self.values)}"
-                      f" (e.g. {self.names[0]}=?, {self.names[-1]}=?)")
+                      f" ({template(self.names)})")
 
     def parse(self, text: str) -> dict:
         names, prediction = OneOf(self.names), {}
@@ -88,6 +89,9 @@ class PerName:
                 name = names.parse(name_text)
             except ValueError:
                 raise ValueError(f"in {item!r}, {name_text!r} is not one of {', '.join(self.names)}") from None
+            if value_text.strip() in ("?", "..."):
+                raise ValueError(f"in {item!r}, put your value where the {value_text.strip()} is:"
+                                 f" one of {', '.join(f'{v:g}' for v in self.values)}")
             try:
                 value = _number(value_text)
             except ValueError:
@@ -102,6 +106,13 @@ class PerName:
         if missing:
             raise ValueError(f"no value for {', '.join(missing)}: expected {self.forms}")
         return {name: prediction[name] for name in self.names}
+
+
+def template(names, what: str = "value") -> str:
+    """The shape of a per-name answer: 'like euler=A, semi_implicit=B, rk4=C, with your value for each letter'."""
+    letters = "ABCDEFGH"[: len(names)]
+    return f"like {', '.join(f'{name}={letter}' for name, letter in zip(names, letters, strict=True))}," \
+           f" with your {what} for each letter"
 
 
 def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
@@ -148,7 +159,8 @@ def explain(*lines: str, width: int = 100) -> None:
 
 
 def _name_key(text: str) -> str:
-    return re.sub(r"[\s_-]+", "_", text.strip().lower())
+    """How a name is compared: any case, with spaces, '_' and '-' left out ('RK-4' is rk4)."""
+    return re.sub(r"[\s_-]+", "", text.lower())
 
 
 def _number(text: str) -> int:
