@@ -9,9 +9,9 @@ How an exercise uses it (ex1_runaway.py is the shortest example):
     explain("- first thing the numbers show ...", "- second ...")
 
 - `ask` adds `--predict` to the parser. Run bare, the exercise prints the question, the accepted
-  answers and how to commit (four lines, no figure) and exits 2. A prediction that does not parse
-  gets one line on stderr that lists the accepted forms, and exit 2. Otherwise it returns the
-  parsed prediction.
+  answers and how to commit (four lines, no figure) and exits 0: asking is not an error. A
+  prediction that does not parse gets one line on stderr that lists the accepted forms, and exit 2.
+  Otherwise it returns the parsed prediction.
 - The answer forms read predictions the way people type them: `OneOf` (names, any case, '-' or ' '
   for '_'), `Number` (`10000`, `10,000`, `10_000`, `1e4`) and `PerName` (`euler=8, rk4=1`, any
   spacing, any order). Each has `.forms`, the sentence a refusal prints.
@@ -116,7 +116,7 @@ def template(names, what: str = "value") -> str:
 
 
 def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
-    """Parse argv and return the parsed prediction; without --predict, ask the question and exit 2.
+    """Parse argv and return the parsed prediction; without --predict, ask the question and exit 0.
 
     `answers` is OneOf, Number or PerName (anything with .parse(text) and .forms). The extra
     arguments an exercise adds to `parser` are in `parser.parsed`, the argparse namespace.
@@ -129,7 +129,7 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
         print(question)
         print(f"Answer with {answers.forms}.")
         print(f"\nCommit to a prediction first, then run:  {how_it_was_run(parser.prog)} --predict ANSWER")
-        sys.exit(2)
+        sys.exit(0)
     try:
         return answers.parse(" ".join(args.predict))
     except ValueError as problem:
