@@ -305,7 +305,7 @@ def implicit_step(q, v, m, force, dt, dforce_dv):
     With a linear damper that is the force at (q_old, v_new): implicit in the damping, explicit
     in the spring. It is MuJoCo's Euler on a joint with damping, and its implicitfast (M - h qDeriv).
     Order 1; 1 force evaluation per step; with dforce_dv = 0 it is semi_implicit_step exactly.
-    Bounded for any damping, but not for any stiffness: it needs dt sqrt(k/m) < sqrt(4 + 2 dt b/m).
+    What it buys under stiff damping is exercise 6 (predict first); docs/damping.md has the stability map.
     """
     # MuJoCo factorizes m - dt * qDeriv and multiplies by the inverse of its diagonal, so we do
     # too and match it to the bit (its mjINT_IMPLICIT divides instead: last-bit differences).
