@@ -277,6 +277,13 @@ def test_an_out_under_sys_is_refused_in_advance():
     assert not Path("/sys/kernel/ch3.3-out").exists()
 
 
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc")
+@pytest.mark.parametrize("out", ["/proc", "/proc/ch3.3-out/deeper"])
+def test_an_out_in_proc_says_the_folder_takes_no_files_not_that_it_is_missing(out):
+    assert folder_problem(Path(out), PAIR) == (f"cannot create a file in {out}: /proc exists but does not let"
+                                               " files or folders be created in it")
+
+
 def test_symlinks_as_out_that_lead_nowhere_are_named(tmp_path):
     (tmp_path / "dangling").symlink_to(tmp_path / "nowhere")
     (tmp_path / "loop").symlink_to(tmp_path / "loop")

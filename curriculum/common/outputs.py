@@ -115,6 +115,9 @@ def _describe(out: Path, error: OSError) -> str:
         if os.path.exists(path) and not os.path.isdir(path):
             what = "a file" if stat.S_ISREG(os.stat(path).st_mode) else "not a folder"
             return f"{out} cannot hold files: {path} is {what}"
+    if error.errno == errno.ENOENT:  # "no such file" although the folders exist: /proc and its kind
+        existing = next(path for path in [out, *out.parents] if os.path.isdir(path))
+        return f"cannot create a file in {out}: {existing} exists but does not let files or folders be created in it"
     return f"cannot create a file in {out}: {_says(error)}"
 
 
