@@ -178,6 +178,8 @@ def test_ex2_reference_solution_passes(capsys):
     code, out = check(REPO / "exercises" / "solutions" / "ex2_integrators.py", capsys)
     assert code == 0 and "semi_implicit_step: solved" in out and "rk4_step: solved" in out
     assert out.endswith("All solved.")
+    # exercise 3 asks by what factor halving dt shrinks each error: passing exercise 2 must not say
+    assert "divide" not in out and not re.search(r"\border \d", out), out
 
 
 def test_ex2_reference_rk4_is_the_engines_rk4_line_for_line():
