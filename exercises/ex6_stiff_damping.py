@@ -33,6 +33,12 @@ MAP_STIFFNESS = [4.0, 3.0, 2.5, 2.0, 1.5, 1.0, 0.5, 0.02]  # w = dt sqrt(k/m), t
 MAP_DAMPING = [0.0, 0.001, 0.01, 0.1, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 5.0, 10.0, 100.0]  # c = dt b/m
 
 
+# What people call the four, as one word each: the longest phrases first ("semi-implicit Euler" before "implicit Euler").
+PHRASES = [(r"\b(semi[\s_-]*implicit|symplectic)([\s_-]+euler)?\b", "semi_implicit"),
+           (r"\b(explicit|forward)[\s_-]+euler\b", "euler"), (r"\bimplicit[\s_-]+euler\b", "implicit"),
+           (r"\brk[\s_-]*4\b", "rk4")]
+
+
 class SomeOf:
     """Any number of names from a list, or none, or all: 'rk4, implicit', 'RK4 and implicit', 'none', 'all'."""
 
@@ -42,11 +48,13 @@ class SomeOf:
                       " (or 'none', or 'all')")
 
     def parse(self, text: str) -> frozenset:
-        text = re.sub(r"semi[\s_-]+implicit", "semi_implicit", text.strip().lower())  # one name, however spaced
+        text = text.strip().lower()
+        for spoken, name in PHRASES:  # names of more than one word are one name, however spaced
+            text = re.sub(spoken, name, text)
         words = [word for word in re.split(r"[,;+\s]+|\band\b", text) if word]
-        if words == ["none"]:
+        if words in (["none"], ["none", "of", "them"]):
             return frozenset()
-        if words == ["all"]:
+        if words in (["all"], ["all", "of", "them"], ["all", "four"]):
             return frozenset(self.names)
         one = OneOf(self.names)
         chosen = []
@@ -54,6 +62,8 @@ class SomeOf:
             try:
                 chosen.append(one.parse(word))
             except ValueError:
+                if word in ("none", "all"):
+                    raise ValueError(f"'{word}' goes alone: answer with {self.forms}") from None
                 raise ValueError(f"{word!r} is not an integrator here: answer with {self.forms}") from None
         if not chosen:
             raise ValueError(f"the answer is empty: answer with {self.forms}")

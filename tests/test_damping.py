@@ -367,11 +367,21 @@ def test_ex6_grades_the_set_of_bounded_integrators(tmp_path):
 
 @pytest.mark.parametrize("said, right", [("Implicit and RK4", True), ("implicit", False), ("none", False),
                                          ("euler semi-implicit rk4", False), ("Semi implicit, RK4", False),
-                                         ("rk4,implicit", True)])
+                                         ("rk4,implicit", True), ("RK 4 and implicit Euler", True),
+                                         ("rk-4, semi-implicit Euler", False)])
 def test_ex6_reads_predictions_as_typed(said, right):
     parsed = ex6_stiff_damping.SomeOf(ex6_stiff_damping.NAMES).parse(said)
     assert (parsed == {"rk4", "implicit"}) == right
     assert said != "Semi implicit, RK4" or parsed == {"semi_implicit", "rk4"}
+    assert said != "rk-4, semi-implicit Euler" or parsed == {"semi_implicit", "rk4"}  # not euler as well
+
+
+def test_ex6_reads_names_of_several_words_as_one_name():
+    some = ex6_stiff_damping.SomeOf(ex6_stiff_damping.NAMES)
+    assert some.parse("Implicit Euler") == {"implicit"} and some.parse("explicit Euler") == {"euler"}
+    assert some.parse("symplectic Euler") == {"semi_implicit"} and some.parse("none of them") == frozenset()
+    with pytest.raises(ValueError, match="'none' goes alone"):
+        some.parse("none, rk4")
 
 
 def test_ex6_refuses_an_unknown_name_in_one_line(tmp_path):
