@@ -33,7 +33,7 @@ MAP_STIFFNESS = [4.0, 3.0, 2.5, 2.0, 1.5, 1.0, 0.5, 0.02]  # w = dt sqrt(k/m), t
 MAP_DAMPING = [0.0, 0.001, 0.01, 0.1, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 5.0, 10.0, 100.0]  # c = dt b/m
 
 
-# What people call the four, as one word each: the longest phrases first ("semi-implicit Euler" before "implicit Euler").
+# What people call the four, each made one word; longest first ("semi-implicit Euler" before "implicit Euler").
 PHRASES = [(r"\b(semi[\s_-]*implicit|symplectic)([\s_-]+euler)?\b", "semi_implicit"),
            (r"\b(explicit|forward)[\s_-]+euler\b", "euler"), (r"\bimplicit[\s_-]+euler\b", "implicit"),
            (r"\brk[\s_-]*4\b", "rk4")]
