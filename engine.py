@@ -31,7 +31,15 @@ try:  # loading takes a moment (numpy most of it): a Ctrl-C meanwhile ends in on
 
     import numpy as np
 
-    from curriculum.common import OneLineParser, banner, int_in, positive_finite, progress_printer, wall_clock
+    from curriculum.common import (
+        OneLineParser,
+        banner,
+        int_in,
+        name_arg,
+        positive_finite,
+        progress_printer,
+        wall_clock,
+    )
     from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
     from engine_ensembles import (
         ENSEMBLE_MEMORY,
@@ -504,7 +512,7 @@ def cell(value: float, width: int, signed: bool = False) -> str:
 
 def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
     sim_seconds = steps * dt
-    shown = f"{sim_seconds:.2f}" if sim_seconds < 1e9 else f"{sim_seconds:.3g}"
+    shown = f"{sim_seconds:.2f}" if 0.01 <= sim_seconds < 1e9 else f"{sim_seconds:.3g}"
     print(f"integrated {system_name} for {steps} steps of {dt} s -> {shown} s of sim time")
     print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
     for name, d in drifts.items():
@@ -557,22 +565,24 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser = OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seed", type=int_in(0, None, "--seed"), default=0,
                         help="seeds the one jittered initial condition per system (default 0)")
-    parser.add_argument("--system", choices=SYSTEMS + DAMPED_SYSTEMS, default="orbit",
+    parser.add_argument("--system", type=name_arg, choices=SYSTEMS + DAMPED_SYSTEMS, default="orbit",
                         help="which system to integrate; damped_spring is the one that is not conservative"
                              " (default orbit)")
-    parser.add_argument("--integrator", choices=["all", *INTEGRATORS, "implicit"], default="all",
+    parser.add_argument("--integrator", type=name_arg, choices=["all", *INTEGRATORS, "implicit"], default="all",
                         help="'all' runs the three-way comparison, which is the point; on damped_spring it"
                              " adds implicit, the damping taken at the new velocity (default all)")
     parser.add_argument("--damping", type=positive_finite("--damping"), default=None,
                         help=f"damped_spring's b in N s/m (default {DAMPING}); 300 at dt 0.01 is the stiff case")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
-                        help="timestep in sim seconds; raise it and every drift grows (default 0.01)")
+                        help="timestep in sim seconds, any positive number; raise it and every drift grows"
+                             " (default 0.01)")
     parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=None,
                         help=f"steps per integrator, 1 to {MAX_STEPS:,} (default {DEFAULT_STEPS:,})")
     parser.add_argument("--smoke", action="store_true",
                         help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
     parser.add_argument("--ensemble", type=int_in(1, None, "--ensemble"), default=None, metavar="N",
-                        help="also run seeds --seed .. --seed+N-1 together and report the spread (default: off)")
+                        help="also run seeds --seed .. --seed+N-1 together and report the spread, N up to what"
+                             f" fits in {ENSEMBLE_MEMORY / 1e9:g} GB (about 44,000 orbits of 2,000 steps; default off)")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
     parser.add_argument("--out", type=folder_arg, default=Path("outputs/ch3.3-engine"),

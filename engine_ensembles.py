@@ -116,8 +116,11 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
                  for x in (d["rel_final"], d["rel_max"])]  # '-': every member diverged
         print(f"{name:<14}{cells[0]}  {cells[1]}  {d['diverged']:>8,}")
     if "ordering_holds" in block:
-        print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: holds for {block['ordering_holds']:,}"
-              f" of {len(seeds):,} seeds")
+        head = "energy drift ordering euler >> semi_implicit(bounded) > rk4:"
+        if block["ordering_not_judged"] == len(seeds):
+            print(f"{head} cannot judge any of the {len(seeds):,} seeds")
+        else:
+            print(f"{head} holds for {block['ordering_holds']:,} of {len(seeds):,} seeds")
         roundoff = block["ordering_roundoff_only"]
         if block["ordering_not_judged"] - roundoff:
             print(f"  {block['ordering_not_judged'] - roundoff:,} diverged under some integrator and cannot be judged"

@@ -8,6 +8,7 @@ import pytest
 from curriculum.common import (
     OneLineParser,
     int_in,
+    name_arg,
     positive_finite,
     progress_printer,
     wall_clock,
@@ -37,6 +38,11 @@ def test_a_mistyped_flag_is_named_with_the_flag_it_looks_like(capsys):
         with pytest.raises(SystemExit):
             parser.parse_args(typed)
         assert capsys.readouterr().err == f"chapter.py: error: unrecognized arguments: {says} (see --help)\n"
+
+
+def test_names_are_read_in_any_case_with_hyphens_for_underscores():
+    typed = ("RK4", " Semi-Implicit ", "damped-spring")
+    assert [name_arg(t) for t in typed] == ["rk4", "semi_implicit", "damped_spring"]
 
 
 @pytest.mark.parametrize("text, value", [("0.01", 0.01), ("1e-3", 1e-3), ("7", 7.0)])

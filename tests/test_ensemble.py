@@ -130,7 +130,7 @@ def test_ensemble_counts_diverged_members(tmp_path, capsys):
     assert block["ordering_holds"] == 0 and block["ordering_not_judged"] == 5
     assert block["ordering_fails_for_seeds"] == []  # diverged is "cannot judge", not a failure
     out = capsys.readouterr().out
-    assert "holds for 0 of 5 seeds" in out and "5 diverged under some integrator and cannot be judged" in out
+    assert "cannot judge any of the 5 seeds" in out and "5 diverged under some integrator and cannot be judged" in out
 
 
 def test_ensemble_does_not_judge_members_whose_drifts_are_round_off(tmp_path, capsys):
@@ -139,6 +139,7 @@ def test_ensemble_does_not_judge_members_whose_drifts_are_round_off(tmp_path, ca
     assert block["ordering_holds"] == 0 and block["ordering_fails_for_seeds"] == []
     assert block["ordering_not_judged"] == block["ordering_roundoff_only"] == 5
     out = capsys.readouterr().out
+    assert "cannot judge any of the 5 seeds" in out and "holds for" not in out
     assert "5 drifted by round-off only and cannot be judged" in out and "diverged under" not in out
 
 

@@ -1,6 +1,6 @@
 """Command-line plumbing every chapter script shares, so the chapter files keep only their own flags.
 
-    from curriculum.common.cli import OneLineParser, positive_finite, int_in, progress_printer
+    from curriculum.common.cli import OneLineParser, positive_finite, int_in, name_arg, progress_printer
 
 Bad input gets one line naming the problem and exit code 2, never a usage block or a traceback.
 """
@@ -26,6 +26,11 @@ class OneLineParser(argparse.ArgumentParser):
             guesses = [match for word in typed for match in difflib.get_close_matches(word, known, n=1, cutoff=0.75)]
             hint = f"; did you mean {' and '.join(guesses)}?" if guesses else ""
         self.exit(2, f"{self.prog}: error: {message}{hint} (see --help)\n")
+
+
+def name_arg(text: str) -> str:
+    """Argument type for a choice of names: 'RK4', 'Semi-Implicit' and ' orbit ' read as rk4, semi_implicit, orbit."""
+    return text.strip().lower().replace("-", "_")
 
 
 def positive_finite(what: str):
