@@ -75,7 +75,8 @@ def print_ladder(errors: dict) -> None:
         for name, rung_errors in by_integrator.items():
             ladder = LADDERS[name]
             cells = shrink_factors(rung_errors, FLOOR[measure_name])
-            print(f"  {name:<15}dt {ladder[0]:g} -> {ladder[-1]:g}: "
+            span = f"dt {ladder[0]:g} -> {ladder[-1]:g}:"
+            print(f"  {name:<15}{span:<24}"
                   + "".join(f"{f:>8.2f}" if f else f"{'(round-off)':>12}" for f in cells))
 
 

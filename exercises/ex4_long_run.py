@@ -89,7 +89,7 @@ def main(argv=None) -> int:
     guess = ask(parser,
                 f"On the chapter's orbit at dt = {TIMESTEPS[-1]}, after how many orbits does RK4's energy error"
                 " first exceed the band semi-implicit Euler stays inside (to the nearest power of ten)?",
-                Number(CHOICES), argv)
+                Number(CHOICES, unit="orbit"), argv)
 
     system = engine.build_system("orbit", np.random.default_rng(0))
     period = orbit_period(system)

@@ -197,6 +197,8 @@ class EachOf:
             if not match:
                 raise ValueError(f"{item!r} has no '=': expected {self.forms}")
             name_text, word_text = match.groups()
+            if re.search(r"[=:]", word_text):
+                raise ValueError(f"{item!r} holds two answers: put a comma between them")
             if word_text.strip() in ("?", "..."):
                 raise ValueError(f"in {item!r}, put your word where the {word_text.strip()} is:"
                                  f" one of {', '.join(self.words.names)}")

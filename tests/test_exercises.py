@@ -54,7 +54,7 @@ def test_no_prediction_no_figures(module, tmp_path):
     ("ex1_runaway", "verlet", "one of euler, semi_implicit, rk4"),
     ("ex3_halve_dt", "euler=3, semi_implicit=2, rk4=16", "one of 1, 2, 4, 8, 16, 32"),
     ("ex3_halve_dt", "euler=2", "name=value for each of euler, semi_implicit, rk4"),
-    ("ex4_long_run", "12", "one of 10, 100, 1,000, 10,000, 100,000 (written 10000, 10,000, 10_000 or 1e4)"),
+    ("ex4_long_run", "12", "one of 10, 100, 1,000, 10,000, 100,000 (written 10000, 10,000, 10_000 or 1e4,"),
 ])
 def test_a_refused_prediction_is_one_line_that_lists_the_accepted_forms(module, bad, forms, tmp_path):
     result = run_exercise(module, "--predict", bad, cwd=tmp_path)
@@ -76,6 +76,11 @@ def test_predictions_parse_as_people_type_them():
     for bad in ("ten", "1e400", "1.5", "12"):
         with pytest.raises(ValueError, match="written 10000, 10,000"):
             orbits.parse(bad)
+    with_unit = Number([10, 100, 1_000], unit="orbit")
+    assert with_unit.parse("1000 orbits") == with_unit.parse("10 Orbit") * 100 == 1_000
+    for bad in ("orbits", "1000 apples"):
+        with pytest.raises(ValueError, match="with or without 'orbits'"):
+            with_unit.parse(bad)
     assert integrators.parse("RK-4") == "rk4" and integrators.parse("explicit Euler") == "euler"
     assert OneOf(["grows", "stays"]).forms == "one of grows, stays (any case)"  # no '_' to stand in for
     assert "(like euler=A, semi_implicit=B, rk4=C, with your value for each letter)" in factors.forms
@@ -86,6 +91,13 @@ def test_predictions_parse_as_people_type_them():
 def test_the_shell_splits_a_spaced_prediction_and_the_exercise_joins_it(tmp_path):
     result = run_exercise("ex3_halve_dt", "--predict", "euler=2,", "semi_implicit=3,", "rk4=16", cwd=tmp_path)
     assert result.returncode == 2 and "in 'semi_implicit=3', 3 is not one of 1, 2, 4, 8, 16, 32" in result.stderr
+
+
+def test_predict_given_twice_counts_both_not_the_last_alone(tmp_path):
+    twice = run_exercise("ex3_halve_dt", "--predict", "euler=2", "--predict", "semi_implicit=3,rk4=16", cwd=tmp_path)
+    assert twice.returncode == 2 and "in 'semi_implicit=3', 3 is not one of" in twice.stderr  # euler=2 was read
+    names = run_exercise("ex1_runaway", "--predict", "euler", "--predict", "rk4", cwd=tmp_path)
+    assert names.returncode == 2 and "'euler rk4' is not one of euler" in names.stderr  # not graded as rk4
 
 
 def test_ex1_grades_the_runaway_and_shows_the_evidence(tmp_path):

@@ -53,12 +53,15 @@ ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler", "symplecticeuler":
 class Number:
     """One number from a fixed list of choices: 10000, 10,000, 10_000, 10 000 and 1e4 are the same."""
 
-    def __init__(self, choices):
-        self.choices = list(choices)
+    def __init__(self, choices, unit: str = ""):
+        self.choices, self.unit = list(choices), unit
+        with_unit = f", with or without '{unit}s'" if unit else ""
         self.forms = (f"one of {', '.join(f'{c:,}' for c in self.choices)}"
-                      " (written 10000, 10,000, 10_000 or 1e4)")
+                      f" (written 10000, 10,000, 10_000 or 1e4{with_unit})")
 
     def parse(self, text: str) -> int:
+        if self.unit:  # '1000 orbits' is 1000 orbits
+            text = re.sub(rf"\s*{re.escape(self.unit)}s?\s*$", "", text, flags=re.IGNORECASE) or text
         try:
             value = _number(text)
         except ValueError:
@@ -122,7 +125,8 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
     arguments an exercise adds to `parser` are in `parser.parsed`, the argparse namespace.
     """
     # nargs="+": `--predict euler=8, rk4=1` reaches us as several words; they are one answer
-    parser.add_argument("--predict", metavar="ANSWER", nargs="+", help=f"your prediction: {answers.forms}")
+    parser.add_argument("--predict", metavar="ANSWER", nargs="+", action="extend",  # given twice: both count
+                        help=f"your prediction: {answers.forms}")
     args = parser.parse_args(argv)
     parser.parsed = args
     if args.predict is None:
