@@ -543,8 +543,10 @@ def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solut
     k, m, b = system["k"], system["m"], system["b"]
     ratio = b / (2.0 * math.sqrt(k * m))
     regime = "under-damped" if ratio < 1.0 else "critically damped" if ratio == 1.0 else "over-damped"
+    sim_seconds = steps * dt
+    shown = f"{sim_seconds:.2f}" if 0.01 <= sim_seconds < 1e9 else f"{sim_seconds:.3g}"
     print(f"integrated {system['name']} (k {k:g}, m {m:g}, b {b:g}: {regime}) for {steps} steps of {dt} s"
-          f" -> {steps * dt:.2f} s of sim time")
+          f" -> {shown} s of sim time")
     print(f"per step: damping dt b/m = {dt * b / m:.4g}, stiffness dt sqrt(k/m) = {dt * math.sqrt(k / m):.4g}"
           " (docs/damping.md maps where each integrator stays bounded)")
     print(f"{'integrator':<14}{'max |q-exact|':>14}{'final':>12}{'bounded':>9}{'E lost':>10}"

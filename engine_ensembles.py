@@ -93,13 +93,15 @@ def ensemble_block(system_name: str, seeds: range, ensemble: dict) -> dict:
     if set(ensemble) == set(CHAPTER_INTEGRATORS) and system_name in ("orbit", "spring"):
         holds = ordering_holds(ensemble)
         diverged = np.any([s["diverged"] for s in ensemble.values()], axis=0)  # such a member cannot be judged
-        with np.errstate(invalid="ignore"):  # nor one whose drifts are all round-off (a diverged one's are NaN)
+        with np.errstate(invalid="ignore"):  # nor one whose drifts are all round-off (a diverged one's are NaN),
             roundoff = ~diverged & (np.abs(ensemble["euler"]["rel_final"]) < ROUNDOFF_DRIFT)
-        judged = ~diverged & ~roundoff
+            unbanded = ~diverged & (ensemble["semi_implicit"]["rel_max"] > 1.0)  # nor one past 100%: no band left
+        judged = ~diverged & ~roundoff & ~unbanded
         block["ordering_holds"] = int(np.count_nonzero(holds & judged))
         block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(~holds & judged).tolist()]
         block["ordering_not_judged"] = int(np.count_nonzero(~judged))
         block["ordering_roundoff_only"] = int(np.count_nonzero(roundoff))
+        block["ordering_left_band"] = int(np.count_nonzero(unbanded & ~roundoff))
     return block
 
 
@@ -121,9 +123,12 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
             print(f"{head} cannot judge any of the {len(seeds):,} seeds")
         else:
             print(f"{head} holds for {block['ordering_holds']:,} of {len(seeds):,} seeds")
-        roundoff = block["ordering_roundoff_only"]
-        if block["ordering_not_judged"] - roundoff:
-            print(f"  {block['ordering_not_judged'] - roundoff:,} diverged under some integrator and cannot be judged"
+        roundoff, left_band = block["ordering_roundoff_only"], block["ordering_left_band"]
+        if block["ordering_not_judged"] - roundoff - left_band:
+            print(f"  {block['ordering_not_judged'] - roundoff - left_band:,} diverged under some integrator and"
+                  " cannot be judged (try a smaller --dt)")
+        if left_band:
+            print(f"  {left_band:,} left semi_implicit's band (energy error past 100%) and cannot be judged"
                   " (try a smaller --dt)")
         if roundoff:
             print(f"  {roundoff:,} drifted by round-off only and cannot be judged (more --steps or a larger --dt)")

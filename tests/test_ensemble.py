@@ -143,6 +143,15 @@ def test_ensemble_does_not_judge_members_whose_drifts_are_round_off(tmp_path, ca
     assert "5 drifted by round-off only and cannot be judged" in out and "diverged under" not in out
 
 
+def test_ensemble_does_not_judge_members_that_left_the_band_as_the_single_run_does(tmp_path, capsys):
+    assert engine.main(["--dt", "1.0", "--ensemble", "3", "--no-rerun", "--out", str(tmp_path)]) == 0
+    block = json.loads((tmp_path / "metrics.json").read_text())["ensemble"]
+    assert block["ordering_not_judged"] == block["ordering_left_band"] == 3 and block["ordering_fails_for_seeds"] == []
+    out = capsys.readouterr().out
+    assert "cannot judge, semi_implicit left its band" in out and "cannot judge any of the 3 seeds" in out
+    assert "3 left semi_implicit's band" in out
+
+
 @pytest.mark.parametrize("members, why", [("0", "--ensemble must be 1 or more"), ("-3", "must be 1 or more"),
                                           ("many", "is not a whole number"), ("10000000", "GB")])
 def test_bad_ensemble_gets_one_line_and_touches_nothing(members, why, tmp_path):
