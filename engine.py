@@ -510,10 +510,13 @@ def cell(value: float, width: int, signed: bool = False) -> str:
     return f"{text:>{width}}" if len(text) < width - 1 else f"{value:>{sign}{width}.4e}"
 
 
+def sim_time(seconds: float) -> str:
+    """Simulated seconds as the reports print them: 20.00, or 1e-08 and 1e+12 where two decimals do not fit."""
+    return f"{seconds:.2f}" if 0.01 <= seconds < 1e9 else f"{seconds:.3g}"
+
+
 def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
-    sim_seconds = steps * dt
-    shown = f"{sim_seconds:.2f}" if 0.01 <= sim_seconds < 1e9 else f"{sim_seconds:.3g}"
-    print(f"integrated {system_name} for {steps} steps of {dt} s -> {shown} s of sim time")
+    print(f"integrated {system_name} for {steps} steps of {dt} s -> {sim_time(steps * dt)} s of sim time")
     print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
     for name, d in drifts.items():
         if d["diverged"]:
@@ -543,10 +546,8 @@ def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solut
     k, m, b = system["k"], system["m"], system["b"]
     ratio = b / (2.0 * math.sqrt(k * m))
     regime = "under-damped" if ratio < 1.0 else "critically damped" if ratio == 1.0 else "over-damped"
-    sim_seconds = steps * dt
-    shown = f"{sim_seconds:.2f}" if 0.01 <= sim_seconds < 1e9 else f"{sim_seconds:.3g}"
     print(f"integrated {system['name']} (k {k:g}, m {m:g}, b {b:g}: {regime}) for {steps} steps of {dt} s"
-          f" -> {shown} s of sim time")
+          f" -> {sim_time(steps * dt)} s of sim time")
     print(f"per step: damping dt b/m = {dt * b / m:.4g}, stiffness dt sqrt(k/m) = {dt * math.sqrt(k / m):.4g}"
           " (docs/damping.md maps where each integrator stays bounded)")
     print(f"{'integrator':<14}{'max |q-exact|':>14}{'final':>12}{'bounded':>9}{'E lost':>10}"
