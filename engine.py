@@ -21,38 +21,37 @@ from __future__ import annotations  # annotations stay text: np.random loads in 
 
 import sys
 
-try:  # loading takes a moment (numpy most of it): a Ctrl-C meanwhile ends in one line, as it does later
-    import argparse
-    import functools
-    import json
-    import math
-    import time
-    from pathlib import Path
+from curriculum.common.interrupts import guard
 
-    import numpy as np
+guard("engine.py")  # from here on, Ctrl-C or SIGTERM ends in one line (exit 130 or 143), never a traceback
 
-    from curriculum.common import (
-        OneLineParser,
-        banner,
-        int_in,
-        name_arg,
-        positive_finite,
-        progress_printer,
-        wall_clock,
-    )
-    from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
-    from engine_ensembles import (
-        ENSEMBLE_MEMORY,
-        ROUNDOFF_DRIFT,
-        ensemble_block,
-        ensemble_bytes,
-        ensemble_every,
-        print_ensemble_report,
-        summarize_ensemble,
-    )
-except KeyboardInterrupt:
-    print("interrupted: no file was written", file=sys.stderr)
-    raise SystemExit(130) from None
+import argparse  # imports come below the guard on purpose: numpy takes a moment to load
+import functools
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from curriculum.common.cli import OneLineParser, int_in, name_arg, positive_finite, progress_printer
+from curriculum.common.device import banner, wall_clock
+from curriculum.common.outputs import (
+    content_id,
+    folder_arg,
+    folder_problem,
+    one_line_failures,
+    write_run,
+)
+from engine_ensembles import (
+    ENSEMBLE_MEMORY,
+    ROUNDOFF_DRIFT,
+    ensemble_block,
+    ensemble_bytes,
+    ensemble_every,
+    print_ensemble_report,
+    summarize_ensemble,
+)
 
 # --- settings ---
 

@@ -30,9 +30,9 @@ import numpy as np
 
 import engine
 from curriculum.common.cli import OneLineParser
+from curriculum.common.predict import explain
 from exercises.support import ex2_cases
 from exercises.support.ex2_mistakes import RK4_MISTAKES, SEMI_MISTAKES
-from exercises.support.predict import explain
 
 DEFAULT_FILE = Path(__file__).resolve().parent / "ex2_integrators.py"
 CHILD = Path(__file__).resolve().parent / "support" / "ex2_child.py"

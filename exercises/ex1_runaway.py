@@ -19,7 +19,7 @@ import numpy as np
 import engine
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
-from exercises.support.predict import OneOf, ask, explain, verdict
+from curriculum.common.predict import OneOf, ask, explain, verdict
 
 CHOICES = list(engine.INTEGRATORS)
 HORIZONS = [1, 2, 4, 8]  # multiples of the chapter's run

@@ -23,8 +23,8 @@ import numpy as np
 import engine
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
+from curriculum.common.predict import PerName, ask, explain
 from exercises.support.exact import kepler_position, spring_position
-from exercises.support.predict import PerName, ask, explain
 
 SIM_SECONDS = 5.0  # not a whole number of periods: at one, some error terms cancel and the ladder zigzags
 # Each ladder starts where its method's error is already small and still far above rounding,

@@ -23,8 +23,8 @@ import numpy as np
 import engine
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
+from curriculum.common.predict import Number, ask, explain, verdict
 from exercises.support.exact import orbit_period
-from exercises.support.predict import Number, ask, explain, verdict
 
 # Coarse on purpose, so the crossovers come within tens of thousands of steps. The last member
 # is the chapter's dt: it rides along in the same batch, for the direct estimate at dt 0.01.

@@ -24,7 +24,7 @@ import engine
 import engine_recording
 from curriculum.common import write_atomic
 from curriculum.common.outputs import folder_problem, one_line_failures
-from exercises.support.predict import OneOf, ask, explain, template, verdict
+from curriculum.common.predict import OneOf, ask, explain, template, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
 STEPS, DT, COARSE_DT = 2000, 0.01, 0.1

@@ -23,8 +23,8 @@ import numpy as np
 
 import engine
 from curriculum.common.outputs import one_line_failures
+from curriculum.common.predict import OneOf, ask, explain, verdict
 from exercises.support import stability_map
-from exercises.support.predict import OneOf, ask, explain, verdict
 
 DAMPING, DT, STEPS = 250.0, 0.01, 2000  # b in N s/m; 2000 steps is the chapter's run
 NAMES = ["euler", "semi_implicit", "rk4", "implicit"]

@@ -124,7 +124,7 @@ def test_physics_avoids_blas_and_libm_pow():
 def test_trajectories_do_not_depend_on_the_simd_level():
     def fingerprint(extra_env):
         env = {**os.environ, **extra_env}
-        script = REPO / "tests" / "fingerprint.py"
+        script = REPO / "tools" / "fingerprint.py"
         result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env)
         assert result.returncode == 0, result.stderr
         return result.stdout

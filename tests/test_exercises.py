@@ -16,8 +16,8 @@ import pytest
 
 import engine
 from conftest import REPO
+from curriculum.common.predict import Number, OneOf, PerName
 from exercises import check_ex2, ex3_halve_dt, ex4_long_run
-from exercises.support.predict import Number, OneOf, PerName
 
 PLANTED = REPO / "tests" / "planted"
 PRISTINE = REPO / "tests" / "pristine" / "ex2_integrators.py"

@@ -1,6 +1,6 @@
 """The .rrd recording, read back with Rerun's own reader and checked against the run.
 
-What pytest cannot see without a screen (how the views look) tests/screenshots.py shows in the real
+What pytest cannot see without a screen (how the views look) tools/screenshots.py shows in the real
 viewer; here we check what the viewer is given: the moving bodies' values, each plot's numbers, and
 the blueprint's views and settings.
 """

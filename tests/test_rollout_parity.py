@@ -8,9 +8,8 @@ import pytest
 
 pytest.importorskip("mujoco", reason="rollout parity needs the 'mujoco' extra: pip install -e '.[mujoco]'")
 
-from mujoco_rollout import rollout_positions  # noqa: E402
-
 import engine  # noqa: E402
+from mujoco_rollout import rollout_positions  # noqa: E402
 
 SEEDS = np.arange(40)  # 40 distinct members x 2000 steps: every one compared, a few seconds
 STEPS = 2000

@@ -1,8 +1,18 @@
-"""What every chapter script shares: the banner, flag parsing, progress lines, safe output files."""
+"""What every chapter script shares: the banner, flag parsing, progress lines, safe output files,
+predict-then-run, the signal guard a script installs first.
 
-from curriculum.common.cli import OneLineParser, int_in, name_arg, positive_finite, progress_printer
-from curriculum.common.device import banner, wall_clock
-from curriculum.common.outputs import write_atomic
+Importing this package loads nothing heavy (no numpy, no Rerun): a script's first line can import the
+guard from it before anything else. The names below load their module on first use.
+"""
 
-__all__ = ["OneLineParser", "banner", "int_in", "name_arg", "positive_finite", "progress_printer",
-           "wall_clock", "write_atomic"]
+import importlib
+
+_HOMES = {"OneLineParser": "cli", "int_in": "cli", "name_arg": "cli", "positive_finite": "cli",
+          "progress_printer": "cli", "banner": "device", "wall_clock": "device", "write_atomic": "outputs"}
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name):
+    if name in _HOMES:
+        return getattr(importlib.import_module(f"curriculum.common.{_HOMES[name]}"), name)
+    raise AttributeError(f"module 'curriculum.common' has no attribute {name!r}")

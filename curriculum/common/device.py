@@ -5,8 +5,6 @@ import platform
 import sys
 import time
 
-import numpy as np
-
 # Every chapter has a free tier that runs on any laptop CPU; chapters with a GPU
 # tier name it here. Chapter 3.3 is pure numpy, so it only ever runs on "cpu".
 TIERS = {"cpu": "free"}
@@ -20,6 +18,8 @@ def banner(chapter: str, device: str = "cpu", stream=None) -> str:
     """
     if device not in TIERS:
         raise ValueError(f"unknown device {device!r}; this course knows {sorted(TIERS)}")
+    import numpy as np  # here, not at the top: importing curriculum.common stays light
+
     line = (
         f"[{chapter}] tier: {TIERS[device]} ({device}) | "
         f"python {platform.python_version()} | numpy {np.__version__}"

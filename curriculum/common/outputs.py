@@ -442,15 +442,25 @@ def _what_was_written() -> str:
 
 
 def _install_sigterm():
-    """SIGTERM raises Terminated while main() runs (unless it was ignored); returns the undo."""
-    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGTERM) != signal.SIG_DFL:
+    """While main() runs, Ctrl-C raises KeyboardInterrupt and SIGTERM raises Terminated (each unless it was
+    ignored), replacing the start-up guard of curriculum.common.interrupts; returns the undo."""
+    if threading.current_thread() is not threading.main_thread():
         return lambda: None
 
     def terminate(number, frame):
         raise Terminated
 
-    signal.signal(signal.SIGTERM, terminate)
-    return lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    wanted = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: terminate}
+    before = {number: signal.getsignal(number) for number in wanted}
+    for number, handler in wanted.items():
+        if before[number] is not signal.SIG_IGN:
+            signal.signal(number, handler)
+
+    def undo():
+        for number, handler in before.items():
+            signal.signal(number, handler if handler is not None else signal.SIG_DFL)
+
+    return undo
 
 
 def _stop(code: int, message: str) -> int:

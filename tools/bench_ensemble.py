@@ -1,7 +1,7 @@
 """Benchmark: what stepping many seeds at once buys, against single runs and MuJoCo's own batch runner.
 
-    python tests/bench_ensemble.py           # about two minutes on a quiet machine
-    python tests/bench_ensemble.py --full    # single runs and rollout on all 10,000 members (much longer)
+    python tools/bench_ensemble.py           # about two minutes on a quiet machine
+    python tools/bench_ensemble.py --full    # single runs and rollout on all 10,000 members (much longer)
 
 Not a test (pytest does not collect it: the name does not start with test_): timings vary with the
 machine, so targets are printed as PASS/MISS and never asserted. Everything is one process, side by side:
@@ -22,9 +22,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE.parent), str(HERE)]
 
-from bench import best_seconds  # noqa: E402  (one timing helper for every bench)
-
 import engine  # noqa: E402
+from bench import best_seconds  # noqa: E402  (one timing helper for every bench)
 
 MEMBERS, STEPS, DT = 10_000, 2_000, 0.01
 SAMPLE = 100  # members timed one by one (single runs, rollout) unless --full
@@ -50,6 +49,7 @@ def singles_ns(system_name, integrator, members, steps):
 def rollout_ns(system_name, members, steps):
     """ns per member-step of mujoco.rollout (mjINT_EULER, one thread) from the same initial states."""
     from mujoco import rollout
+
     from mujoco_rollout import initial_states, rollout_model
 
     system = engine.build_ensemble(system_name, range(members))

@@ -1,8 +1,8 @@
-"""The default run in the forms tests/bench_single_run.py compares, one per fresh interpreter:
+"""The default run in the forms tools/bench_single_run.py compares, one per fresh interpreter:
 
-    python tests/single_run_forms.py FORM ROOT OUT
+    python tools/single_run_forms.py FORM ROOT OUT
 
-FORM is batched, one body or chapter (see tests/bench_single_run.py); ROOT is the folder whose engine.py
+FORM is batched, one body or chapter (see tools/bench_single_run.py); ROOT is the folder whose engine.py
 runs, this checkout or an earlier commit's tree; OUT is the output folder. engine.py is imported as a
 module in every form, and nothing but sys before it, so every form pays the same for the harness.
 """

@@ -1,6 +1,6 @@
 """Benchmark: what engine_recording.record() costs, and how big the .rrd is, for the default runs and a long one.
 
-    python tests/bench_recording.py        # about a minute on 2 cores (the 200,000-step runs dominate)
+    python tools/bench_recording.py        # about a minute on 2 cores (the 200,000-step runs dominate)
 
 Not a test (pytest does not collect it): timings vary with the machine. Targets (issue 8): record()
 under 0.1 s for a default run and under 1 s for 200,000 steps; the default run's .rrd under 1 MB.

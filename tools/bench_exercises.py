@@ -1,6 +1,6 @@
 """How long each exercise takes to answer, run as a student runs it: a fresh interpreter, imports included.
 
-    python tests/bench_exercises.py            # best of 3 per command; the target is under 10 s each
+    python tools/bench_exercises.py            # best of 3 per command; the target is under 10 s each
 
 Not collected by pytest (no test_ prefix): timings are measured, never asserted. exercises/README.md
 quotes its output.

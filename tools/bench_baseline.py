@@ -1,4 +1,4 @@
-"""Baseline for tests/bench.py: the chapter's loop written the straightforward way.
+"""Baseline for tools/bench.py: the chapter's loop written the straightforward way.
 
 Not used by the course. It is what engine.py is measured against: 3-vectors, force via
 np.linalg.norm and **, energy evaluated inside the loop at every step, rerun imported

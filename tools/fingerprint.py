@@ -1,8 +1,8 @@
 """Print one SHA-256 over every position and energy of the 9 chapter runs (3 systems x 3 integrators).
 
-    OPENBLAS_CORETYPE=Haswell python tests/fingerprint.py
-    OPENBLAS_CORETYPE=SkylakeX python tests/fingerprint.py        # only on a CPU with AVX-512
-    NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL" python tests/fingerprint.py
+    OPENBLAS_CORETYPE=Haswell python tools/fingerprint.py
+    OPENBLAS_CORETYPE=SkylakeX python tools/fingerprint.py        # only on a CPU with AVX-512
+    NPY_DISABLE_CPU_FEATURES="X86_V4 AVX512_ICL" python tools/fingerprint.py
 
 Same hash under every setting: the physics does not depend on the BLAS kernel or SIMD level.
 """

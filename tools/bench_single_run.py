@@ -1,13 +1,13 @@
 """Benchmark: what batched force laws cost the default run, which steps one body.
 
-    python tests/bench_single_run.py                    # wall-clock, interleaved, best of 9 (about a minute)
-    python tests/bench_single_run.py --instructions     # and instructions under valgrind (a few minutes)
-    python tests/bench_single_run.py --before 5646fd7   # and a whole run of an earlier commit (git archive)
+    python tools/bench_single_run.py                    # wall-clock, interleaved, best of 9 (about a minute)
+    python tools/bench_single_run.py --instructions     # and instructions under valgrind (a few minutes)
+    python tools/bench_single_run.py --before 5646fd7   # and a whole run of an earlier commit (git archive)
 
 Every force law takes one body, (3,), or a batch, (N, 3), with the same code (the system contract in
 engine.py). `python engine.py` steps one body, so the question is what that generality costs it. The
 same default run (orbit, three integrators, 2,000 steps, with its recording) is run in three forms, each
-in a fresh interpreter by tests/single_run_forms.py:
+in a fresh interpreter by tools/single_run_forms.py:
 
   batched     engine.py as it is
   one body    the orbit's force written for one body only: `/ (r * r * r)` without `[..., None]`

@@ -5,7 +5,7 @@ mj_step in C and returns (nbatch, nstep, nstate) states after each step (not the
 is mjSTATE_FULLPHYSICS: [time, qpos, qvel] for these models (no actuators, no mocap, no plugins).
 With one MjData the rollout runs on the calling thread: one thread, as the benchmark compares.
 
-    python tests/mujoco_rollout.py     # the parity figures docs/ensembles.md quotes
+    python tools/mujoco_rollout.py     # the parity figures docs/ensembles.md quotes
 """
 
 import sys
@@ -15,8 +15,8 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests")]  # engine, and the MuJoCo models the parity tests use
 import engine  # noqa: E402
 from mujoco_models import xml_for  # noqa: E402
 

@@ -1,13 +1,13 @@
 """Benchmark: what a whole run costs against the imports it cannot avoid, per step against the
 chapter's plain loop, and against MuJoCo's mj_step.
 
-    python tests/bench.py            # about a minute on 2 cores
+    python tools/bench.py            # about a minute on 2 cores
 
 Not a test (pytest does not collect it): timings vary with the machine, so nothing here is
 asserted in CI. What matters to a student is the first section: a whole run next to the time
 it takes just to import numpy (and rerun, when recording). engine.py is written to read like
 the chapter, not to win nanoseconds per step: the per-step table is information, compared with
-tests/bench_baseline.py (the chapter's loop written plainly, one rr.log per step).
+tools/bench_baseline.py (the chapter's loop written plainly, one rr.log per step).
 """
 
 import contextlib

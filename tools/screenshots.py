@@ -3,8 +3,8 @@
 pytest does not collect this file (it is not named test_*). Run it from the repo root with the project's
 environment active:
 
-    python tests/screenshots.py            # four PNGs in outputs/screenshots/, then look at every one
-    python tests/screenshots.py --docs     # also refresh the README's pictures in docs/
+    python tools/screenshots.py            # four PNGs in outputs/screenshots/, then look at every one
+    python tools/screenshots.py --docs     # also refresh the README's pictures in docs/
 
 The viewer runs on a virtual screen: Debian's xvfb and mesa-vulkan-drivers (and xdotool, to park the
 mouse pointer where it hovers nothing). Rendering is software-only, so allow 20-60 s per picture.
