@@ -207,3 +207,16 @@ def test_the_answers_are_what_the_commands_print_today(command, pasted):
     result = subprocess.run([sys.executable, *shlex.split(command)[1:]], cwd=REPO, capture_output=True, text=True,
                             timeout=600)
     assert result.stdout == pasted, f"{command}: ANSWERS.md is out of date; paste the new output"
+
+
+def test_metrics_json_says_0_0_where_readme_says_so():
+    """README: from --dt 0.004 down RK4's drift is below 1e-12 "and the file says `0.0`": never `-0.0`."""
+    import json
+    import math
+
+    import engine
+
+    assert "the file says `0.0`" in " ".join((REPO / "README.md").read_text().split())
+    written = json.loads(engine.metrics_text(engine.rounded({"rel_final": -4.4e-13, "rel_max": [-0.0, 1e-13]})))
+    assert written == {"rel_final": 0.0, "rel_max": [0.0, 0.0]}
+    assert all(math.copysign(1.0, x) == 1.0 for x in [written["rel_final"], *written["rel_max"]])
