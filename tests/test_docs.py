@@ -220,3 +220,12 @@ def test_metrics_json_says_0_0_where_readme_says_so():
     written = json.loads(engine.metrics_text(engine.rounded({"rel_final": -4.4e-13, "rel_max": [-0.0, 1e-13]})))
     assert written == {"rel_final": 0.0, "rel_max": [0.0, 0.0]}
     assert all(math.copysign(1.0, x) == 1.0 for x in [written["rel_final"], *written["rel_max"]])
+
+
+def test_ci_builds_its_own_environment_and_leaves_the_students_venv_alone():
+    """README tells a student to create .venv; `bash .ci/run` must neither delete nor reuse it."""
+    code = [line for line in (REPO / ".ci" / "run").read_text().splitlines() if not line.lstrip().startswith("#")]
+    assert not any(re.search(r"(?<![\w/])\.venv\b", line) for line in code), "\n".join(code)
+    created = re.search(r"python3 -m venv (\S+)", "\n".join(code)).group(1)
+    assert f"{created}/" in (REPO / ".gitignore").read_text().splitlines()
+    assert "python3 -m venv .venv" in (REPO / "README.md").read_text()
