@@ -49,6 +49,7 @@ from engine_ensembles import (
     ensemble_block,
     ensemble_bytes,
     ensemble_every,
+    memory_over_limit,
     print_ensemble_report,
     summarize_ensemble,
 )
@@ -614,7 +615,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     steps = SMOKE_STEPS if args.smoke else args.steps
     if args.ensemble and ensemble_bytes(steps, args.ensemble) > ENSEMBLE_MEMORY:
         parser.error(f"argument --ensemble: {args.ensemble:,} members x {steps:,} steps needs about"
-                     f" {ensemble_bytes(steps, args.ensemble) / 1e9:.1f} GB, over the {ENSEMBLE_MEMORY / 1e9:g} GB"
+                     f" {memory_over_limit(ensemble_bytes(steps, args.ensemble))}"
                      " this run may use: fewer members or fewer --steps")
     problem = args.rerun and rerun_problem()
     if problem:

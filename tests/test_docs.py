@@ -229,3 +229,35 @@ def test_ci_builds_its_own_environment_and_leaves_the_students_venv_alone():
     created = re.search(r"python3 -m venv (\S+)", "\n".join(code)).group(1)
     assert f"{created}/" in (REPO / ".gitignore").read_text().splitlines()
     assert "python3 -m venv .venv" in (REPO / "README.md").read_text()
+
+
+def test_the_ensemble_report_says_truly_what_a_seed_changes():
+    """engine_ensembles.SEED_CHANGES ('the orbit's starting speed, 1 +- 0.05') against engine.build_system's draws."""
+    import numpy as np
+
+    import engine
+    from engine_ensembles import SEED_CHANGES
+
+    assert set(SEED_CHANGES) == set(engine.SYSTEMS)
+    for name, said in SEED_CHANGES.items():
+        centre, spread = map(float, re.search(r"([\d.]+) \+- ([\d.]+)", said).groups())
+        starts = [engine.build_system(name, np.random.default_rng(seed)) for seed in range(1000)]
+        state = np.array([np.concatenate([s["q0"], s["v0"]]) for s in starts])  # (seeds, q0 then v0)
+        varies = np.flatnonzero(np.ptp(state, axis=0) > 0)
+        assert len(varies) == 1, (name, varies)  # one number per system, nothing else moves
+        assert ("speed" in said) == (varies[0] >= 3) and ("stretch" in said) == (varies[0] < 3)
+        drawn = state[:, varies[0]]
+        assert np.all(np.abs(drawn - centre) <= spread) and np.ptp(drawn) > 1.9 * spread, (name, drawn.min(), drawn.max())
+
+
+def test_the_ensemble_lines_read_true_for_one_member_and_just_over_the_limit(capsys, tmp_path):
+    import engine
+    from engine_ensembles import ENSEMBLE_MEMORY, ensemble_bytes, memory_over_limit
+
+    needed = ensemble_bytes(2000, 44_867)  # the first count over the limit at 2,000 steps
+    assert needed > ENSEMBLE_MEMORY >= ensemble_bytes(2000, 44_866)
+    assert memory_over_limit(needed) == "1.00001 GB, over the 1 GB"  # was "1.0 GB, over the 1 GB"
+    assert memory_over_limit(2.04e9) == "2.0 GB, over the 1 GB"
+    assert engine.main(["--ensemble", "1", "--no-rerun", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "1 member stepped together" in out and "holds for 1 of 1 seed\n" in out
