@@ -2,7 +2,9 @@
 
 The answers are read from exercises/solutions/ANSWERS.md (pasted from runs), so when the physics changes the
 test follows; the texts searched are README.md, exercises/README.md, exercises/HINTS.md, every exercise's
---help, module docstring and bare question.
+--help, module docstring and bare question, and the integrators' docstrings. Exercise 1's answer is what the
+chapter is about, so README states it too, but only after asking the student to do the exercise: the phrases
+that give it away are searched for in what comes before.
 """
 
 import ast
@@ -20,7 +22,8 @@ from conftest import REPO
 
 ANSWERS = (REPO / "exercises" / "solutions" / "ANSWERS.md").read_text()
 PRISTINE_STUB = REPO / "tests" / "pristine" / "ex2_integrators.py"
-PREDICT_THEN_RUN = ["ex1_runaway", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob", "ex6_stiff_damping"]
+PREDICT_THEN_RUN = ["ex1_band", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob", "ex6_stiff_damping"]
+INTEGRATOR_STEPS = ["euler_step", "semi_implicit_step", "rk4_step", "implicit_step"]
 EXERCISE_MODULES = [*PREDICT_THEN_RUN, "check_ex2", "ex2_integrators", "support.exact"]
 
 
@@ -30,12 +33,13 @@ def section(heading: str) -> str:
 
 def graded_answers() -> dict:
     """The answers that score, as ANSWERS.md shows them scoring."""
-    ex1 = re.search(r"Right: it is (\w+)\.", section("Exercise 1")).group(1)
+    ex1 = re.search(r"The graded answer is `([^`]+)`", section("Exercise 1")).group(1)
     ex3 = re.search(r"--predict (\S+)`", section("Exercise 3")).group(1)
     assert "3 of 3." in section("Exercise 3")
     ex4 = int(re.search(r"Right: it is about ([\d,]+) orbits", section("Exercise 4")).group(1).replace(",", ""))
     ex5 = re.search(r"The graded answer is `([^`]+)`", section("Exercise 5")).group(1)
-    return {"ex1": ex1, "ex3": dict(item.split("=") for item in ex3.split(",")), "ex4": ex4,
+    return {"ex1": dict(item.strip().split("=") for item in ex1.split(",")),
+            "ex3": dict(item.split("=") for item in ex3.split(",")), "ex4": ex4,
             "ex5": dict(item.strip().split("=") for item in ex5.split(","))}
 
 
@@ -53,8 +57,6 @@ def spoilers() -> list:
     answers = graded_answers()
     ex4 = answers["ex4"]
     patterns = [
-        (rf"--predict\s+{answers['ex1']}\b(?!\s*=)", "exercise 1's answer as a --predict example"),
-        (rf"\bit is {answers['ex1']}\b|\b{answers['ex1']} (runs away|is the one)", "exercise 1's answer"),
         (rf"--predict\s+(1e{len(str(ex4)) - 1}|{ex4:,}|{ex4}|{ex4:_})\b", "exercise 4's answer as a --predict example"),
         (rf"\b({ex4:,}|{ex4}) orbits", "exercise 4's orbit count"),
         (r"(shrinks?|divides?|drops?|falls?)( \w+){0,4} by (about |roughly )?(2|4|16|32|sixteen|two)\b",
@@ -62,6 +64,8 @@ def spoilers() -> list:
         (r"\bfactors? (of )?(2|16|32)\b", "a shrink factor"),
         (r"\b(millions|thousands) of (orbits|times)", "exercise 4's scale"),
     ]
+    for name, word in answers["ex1"].items():
+        patterns.append((rf"\b{name}\s*[=:]\s*{word}\b", "exercise 1's graded answer"))
     for name, factor in answers["ex3"].items():
         patterns.append((rf"\b{name}\s*=\s*{factor}\b", "exercise 3's graded factor"))
     for name, word in answers["ex5"].items():
@@ -71,6 +75,28 @@ def spoilers() -> list:
     for figure in measured_figures():
         patterns.append((rf"(?<![\d.,]){re.escape(figure)}(?![\d])", f"the measured figure {figure}"))
     return patterns
+
+
+# What gives exercise 1's answer away in words: the sentences README, HINTS and the docstrings used to say.
+# (The question's own words, "grow with the run" and "stay in a band", are not among them.)
+EX1_GIVEAWAYS = [r"spiral(s|ling)? out", r"\bonly (ever )?(grows|climbs|goes up)", r"band that does not grow",
+                 r"(wobbles|oscillates) (in|inside) a band|\binside a band", r"\bcreeps?\b",
+                 r"(comes|pulled|brought) back", r"adds energy", r"\bruns? away|\brunaway", r"(has )?one sign",
+                 r"climbing without bound", r"\bunbounded\b"]
+
+
+def before_exercise_1() -> dict:
+    """{where: text} for what a student reads before exercise 1 asks: README up to its request to do the
+    exercise, exercises/README up to exercise 2, HINTS' exercise 1, the exercise's own texts, the integrators'
+    docstrings (engine.py is the chapter, open beside it)."""
+    import engine
+
+    readme = (REPO / "README.md").read_text()
+    texts = {"README.md up to 'do exercise 1'": readme[: readme.index("do exercise 1")],
+             "exercises/README.md up to exercise 2": (REPO / "exercises" / "README.md").read_text().split("## 2.")[0],
+             "exercises/HINTS.md, exercise 1": (REPO / "exercises" / "HINTS.md").read_text().split("## Exercise 2")[0]}
+    texts.update({f"engine.{name} docstring": getattr(engine, name).__doc__ for name in INTEGRATOR_STEPS})
+    return texts | {where: text for where, text in exercise_texts().items() if "ex1_band" in where}
 
 
 def exercise_texts() -> dict:
@@ -102,15 +128,18 @@ def exercise_texts() -> dict:
 
 def test_the_answers_are_where_teachers_find_them():
     answers = graded_answers()
-    assert answers["ex1"] in ("euler", "semi_implicit", "rk4") and set(answers["ex3"]) == {"euler", "semi_implicit",
-                                                                                          "rk4"}
+    assert answers["ex1"] == {"euler": "grows", "semi_implicit": "stays", "rk4": "grows"}
+    assert set(answers["ex3"]) == {"euler", "semi_implicit", "rk4"}
     assert len(measured_figures()) > 40
     assert "python -m exercises.ex4_long_run --predict" in section("Exercise 4")
 
 
 def test_nothing_a_student_reads_first_gives_an_answer_away():
+    import engine
+
     leaks = []
-    for where, text in exercise_texts().items():
+    texts = exercise_texts() | {f"engine.{name} docstring": getattr(engine, name).__doc__ for name in INTEGRATOR_STEPS}
+    for where, text in texts.items():
         for pattern, what in spoilers():
             for match in re.finditer(pattern, text, flags=re.I):
                 line = text[: match.start()].count("\n") + 1
@@ -118,15 +147,36 @@ def test_nothing_a_student_reads_first_gives_an_answer_away():
     assert not leaks, "\n".join(leaks)
 
 
+def test_nothing_before_exercise_1_says_in_words_which_error_grows():
+    leaks = [f"{where}: {match.group(0)!r}" for where, text in before_exercise_1().items()
+             for pattern in EX1_GIVEAWAYS for match in re.finditer(pattern, text, flags=re.I)]
+    assert not leaks, "\n".join(leaks)
+
+
+def test_readme_shows_the_measurement_then_asks_exercise_1_then_interprets():
+    readme = (REPO / "README.md").read_text()
+    table, ask, interpretation = (readme.index("rel_final       rel_max"), readme.index("do exercise 1"),
+                                  readme.index("What exercise 1 measures"))
+    assert table < ask < interpretation and "python -m exercises.ex1_band" in readme[ask:interpretation]
+    assert any(re.search(pattern, readme[interpretation:], flags=re.I) for pattern in EX1_GIVEAWAYS)  # still told
+
+
 def test_the_spoiler_patterns_catch_the_old_leaks():
     """The texts that leaked before this test existed (issue 7) must be caught, or the test proves nothing."""
-    old = ["python -m exercises.ex1_runaway --predict euler    # commit, then see the evidence",
+    old = ["python -m exercises.ex1_band --predict euler=grows,semi_implicit=stays,rk4=grows",
            "python -m exercises.ex3_halve_dt --predict euler=2,semi_implicit=2,rk4=16",
            "the final-position error on the orbit settles at 1.99 (Euler), 1.97 (semi-implicit) and 17.36 (RK4)",
            "RK4's error drops by about sixteen", "Euler's error roughly halves and RK4's drops by 16",
            "python -m exercises.ex4_long_run --predict 1,000", "after 727 orbits", "about 1,000 orbits"]
     for text in old:
         assert any(re.search(pattern, text, flags=re.I) for pattern, _ in spoilers()), text
+    old_ex1 = ["Explicit Euler's worst excursion is its final one: the error only grows, and the orbit spirals out.",
+               "Fails on anything that oscillates: it adds energy every step, so orbits spiral out.",
+               "Energy wobbles in a band that does not grow; it fails where motion never returns (freefall).",
+               "Tiny error per step, but it creeps one way and is never pulled back over long runs.",
+               "Which of the three integrators sends the Kepler orbit's energy climbing without bound?"]
+    for text in old_ex1:
+        assert any(re.search(pattern, text, flags=re.I) for pattern in EX1_GIVEAWAYS), text
 
 
 # --- every command printed in the READMEs runs as written, from the repo root ---
@@ -152,7 +202,7 @@ def printed_commands() -> list:
 
 def test_the_readmes_print_the_commands_we_expect():
     commands = [c for _, c in printed_commands()]
-    for module in ("ex1_runaway", "check_ex2", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob"):
+    for module in ("ex1_band", "check_ex2", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob"):
         assert any(f"python -m exercises.{module}" in c for c in commands), module
     assert any(c.startswith("python engine.py") for c in commands)
 
@@ -175,10 +225,10 @@ def test_every_printed_command_runs_as_written(readme, command, tmp_path):
     assert "Traceback" not in result.stdout + result.stderr and "Error" not in result.stderr
 
 
-@pytest.mark.parametrize("module, inside", [("ex1_runaway", False), ("check_ex2", False), ("ex3_halve_dt", True),
-                                            ("ex4_long_run", True), ("ex1_runaway", True), ("check_ex2", True)])
+@pytest.mark.parametrize("module, inside", [("ex1_band", False), ("check_ex2", False), ("ex3_halve_dt", True),
+                                            ("ex4_long_run", True), ("ex1_band", True), ("check_ex2", True)])
 def test_every_exercise_runs_as_a_file_too(module, inside):
-    """`python exercises/ex1_runaway.py` from the root, or `cd exercises && python ex1_runaway.py`: each exercise
+    """`python exercises/ex1_band.py` from the root, or `cd exercises && python ex1_band.py`: each exercise
     one way, ex1 and the checker both ways (the same four lines at the top of each file make both work)."""
     cwd, script = (REPO / "exercises", f"{module}.py") if inside else (REPO, f"exercises/{module}.py")
     result = subprocess.run([sys.executable, script, *(["--help"] if module == "check_ex2" else [])], cwd=cwd,

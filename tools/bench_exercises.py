@@ -16,8 +16,8 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 TARGET_SECONDS = 10.0
 COMMANDS = [
-    "python -m exercises.ex1_runaway",
-    "python -m exercises.ex1_runaway --predict rk4",
+    "python -m exercises.ex1_band",
+    "python -m exercises.ex1_band --predict euler=grows,semi_implicit=grows,rk4=grows",
     "python -m exercises.check_ex2",
     "python -m exercises.check_ex2 exercises/solutions/ex2_integrators.py",
     "python -m exercises.ex3_halve_dt --predict euler=1,semi_implicit=1,rk4=1",
