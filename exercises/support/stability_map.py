@@ -1,6 +1,6 @@
 """The stability map of the damped spring: where each integrator stays bounded.
 
-    python -m exercises.support.stability_map        # the table in docs/damping.md (about 13 s of CPU time)
+    python -m exercises.support.stability_map        # the table in docs/damping.md (7 to 13 s of CPU time)
 
 Support for exercise 6 and docs/damping.md, not an exercise: its output answers exercise 6.
 
