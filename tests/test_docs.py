@@ -311,3 +311,61 @@ def test_the_ensemble_lines_read_true_for_one_member_and_just_over_the_limit(cap
     assert engine.main(["--ensemble", "1", "--no-rerun", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "1 member stepped together" in out and "holds for 1 of 1 seed\n" in out
+
+
+@pytest.mark.slow
+def test_readmes_interpretation_of_exercise_1_is_what_exercise_1_measures():
+    from exercises import ex1_band
+
+    text = " ".join((REPO / "README.md").read_text().split())
+    told = text[text.index("What exercise 1 measures"):text.index("`metrics.json` holds")]
+    table = ex1_band.measure()
+    euler, semi, rk4 = table["euler"], table["semi_implicit"], table["rk4"]
+    above, ends_below = ex1_band.rk4_above_e0()
+    figures = [f"{euler[0][1]:.1%} after 2,000 steps", f"{euler[-1][1]:.1%} after 32,000",
+               f"from {semi[0][0]:.3%} to {semi[0][1]:+.3%}", f"{semi[0][1] / rk4[0][0] * -1 / 1e6:.1f} million times",
+               f"{ex1_band.widening(rk4[:1] + rk4[-1:]):.0f} times as big after 16 times",
+               f"{above} of the 1,000 runs go above the start", f"all {ends_below:,} end below it",
+               f"widens it by {round((ex1_band.widening(semi[:1] + semi[-1:]) - 1) * 1e7)} parts in 10 million"]
+    for figure in figures:
+        assert figure in told, figure
+
+
+@pytest.mark.slow
+def test_readmes_round_off_digits_are_what_exact_arithmetic_says():
+    """README: RK4's -4.5061e-11 and 5.1299e-11 are -4.5066e-11 and 5.1303e-11 with the same steps in 50 digits."""
+    from decimal import Decimal, localcontext
+
+    import numpy as np
+
+    import engine
+
+    system = engine.build_system("orbit", np.random.default_rng(0))
+    with localcontext() as context:
+        context.prec = 50
+        q, v, dt = [Decimal(x) for x in system["q0"][:2]], [Decimal(x) for x in system["v0"][:2]], Decimal(0.01)
+
+        def pull(q):
+            r2 = q[0] * q[0] + q[1] * q[1]
+            return [-x / (r2 * r2.sqrt()) for x in q]
+
+        def energy(q, v):
+            return (v[0] * v[0] + v[1] * v[1]) / 2 - 1 / (q[0] * q[0] + q[1] * q[1]).sqrt()
+
+        def moved(a, b, h):
+            return [x + h * y for x, y in zip(a, b, strict=True)]
+
+        e0, errors = energy(q, v), []
+        for _ in range(2000):
+            k1q, k1v = v, pull(q)
+            k2q, k2v = moved(v, k1v, dt / 2), pull(moved(q, k1q, dt / 2))
+            k3q, k3v = moved(v, k2v, dt / 2), pull(moved(q, k2q, dt / 2))
+            k4q, k4v = moved(v, k3v, dt), pull(moved(q, k3q, dt))
+            q = [x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(q, k1q, k2q, k3q, k4q, strict=True)]
+            v = [x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(v, k1v, k2v, k3v, k4v, strict=True)]
+            errors.append((energy(q, v) - e0) / abs(e0))
+    readme = (REPO / "README.md").read_text()
+    exact_final, exact_max = float(errors[-1]), float(max(abs(e) for e in errors))
+    assert f"give {exact_final:.4e} and {exact_max:.4e}" in " ".join(readme.split())
+    drift = engine.energy_drift(engine.run("orbit", "rk4")[2])
+    assert f"{drift['rel_final']:.4e}" != f"{exact_final:.4e}" and f"{drift['rel_final']:.2e}" == f"{exact_final:.2e}"
