@@ -369,3 +369,22 @@ def test_readmes_round_off_digits_are_what_exact_arithmetic_says():
     assert f"give {exact_final:.4e} and {exact_max:.4e}" in " ".join(readme.split())
     drift = engine.energy_drift(engine.run("orbit", "rk4")[2])
     assert f"{drift['rel_final']:.4e}" != f"{exact_final:.4e}" and f"{drift['rel_final']:.2e}" == f"{exact_final:.2e}"
+
+
+def test_the_bounded_intervals_are_closed_except_at_w_2():
+    """docs/damping.md and exercise 6: at an interval's end an eigenvalue has modulus 1 and the run stays bounded
+    (the four end cells of exercise 6's map), except at w = 2, where both eigenvalues are -1 and it grows."""
+    import numpy as np
+
+    from exercises.support import stability_map
+
+    ends = [("euler", 1.0, 1.0), ("euler", 1.0, 2.5), ("semi_implicit", 1.0, 1.5), ("implicit", 3.0, 2.5)]
+    for name, w, c in ends:
+        low, high = stability_map.analytic_interval(name, w)
+        assert c in (low, high)
+        assert stability_map.stays_bounded(name, np.array([w]), np.array([c]), steps=20_000)[0], (name, w, c)
+    for name, c in (("euler", 4.0), ("semi_implicit", 0.0), ("implicit", 0.0)):
+        assert not stability_map.stays_bounded(name, np.array([2.0]), np.array([c]), steps=20_000)[0], (name, c)
+    assert [stability_map.analytic_interval(name, 2.0) for name in ("euler", "semi_implicit")] == [None, None]
+    text = " ".join((REPO / "docs" / "damping.md").read_text().split())
+    assert "every interval is closed" in text and "w² ≤ c ≤ 2 + w²/2" in text
