@@ -114,7 +114,7 @@ def measure(dt: float, steps: int) -> dict:
     between the measured area and the closed form's, over every step."""
     h = spring()[3] * dt
     table = {}
-    for name in engine.INTEGRATORS:
+    for name in engine.CHAPTER_INTEGRATORS:
         areas, x, vx = run_blob(name, dt, steps)
         with np.errstate(all="ignore"):
             ratios = areas / areas[0] - 1.0
@@ -231,7 +231,7 @@ def main(argv=None) -> int:
                         help="where the recording goes (default outputs/ch3.3-engine/ex5_blob.rrd)")
     guess = ask(parser, "A disc of starting states in the spring's (x, v_x) plane runs 2000 steps of dt 0.01"
                 " under each integrator. What happens to the disc's area under each one?",
-                EachOf(list(engine.INTEGRATORS), CHOICES), argv)
+                EachOf(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv)
     args = parser.parsed
     problem = rrd_problem(args.rrd) if args.rerun else None
     if problem:

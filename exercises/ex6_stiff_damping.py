@@ -22,6 +22,7 @@ if __package__ in (None, ""):  # run as a file (python exercises/ex6_stiff_dampi
 import numpy as np
 
 import engine
+import engine_damping
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, verdict
 from exercises.support import stability_map
@@ -76,7 +77,7 @@ def measure(damping: float = DAMPING) -> dict:
     results = {}
     for name, step in engine.integrators_for(system).items():
         positions, velocities, energies = engine.simulate(step, system, DT, STEPS)
-        audit = engine.against_exact(system, positions, velocities, energies, engine.kept_steps(STEPS), DT)
+        audit = engine_damping.against_exact(system, positions, velocities, energies, engine.kept_steps(STEPS), DT)
         blown = np.flatnonzero(~np.isfinite(energies))
         results[name] = (audit["bounded"], int(blown[0]) if blown.size else None, audit["err_max"])
     return results
