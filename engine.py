@@ -27,7 +27,6 @@ guard("engine.py")  # from here on, Ctrl-C or SIGTERM ends in one line (exit 130
 
 import argparse  # imports come below the guard on purpose: numpy takes a moment to load
 import functools
-import json
 import math
 import time
 from pathlib import Path
@@ -36,13 +35,9 @@ import numpy as np
 
 from curriculum.common.cli import OneLineParser, int_in, name_arg, positive_finite, progress_printer
 from curriculum.common.device import banner, wall_clock
-from curriculum.common.outputs import (
-    content_id,
-    folder_arg,
-    folder_problem,
-    one_line_failures,
-    write_run,
-)
+from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
+from curriculum.common.report import cell, metrics_text, rounded, sim_time
+from curriculum.common.viewer import rerun_problem
 
 # --- settings ---
 
@@ -56,19 +51,6 @@ METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 # --- systems ---
 # A system is the physics: where the body starts (q0, v0), its mass m, the force law
 # force(q, v), and the true total energy(q, v), which a perfect integrator holds constant.
-# Each also knows its exact motion, exact(q0, v0, t): where a body starting at (q0, v0) is
-# at times t, (K,) -> (K, *q0.shape); the recording measures the integrators against it.
-# A system with no closed form says exact = None.
-#
-# The contract every system keeps, and simulate() checks: q and v are one body's
-# position and velocity, shape (3,), or a batch of N independent bodies, shape (N, 3),
-# stepped together. force(q, v) returns q's shape; energy(q, v) returns one number per
-# body, shape q.shape[:-1]. Three components let a planar orbit draw as a curve in 3D,
-# and chapter 3.4 adds a constraint force to this same force without changing the rest.
-#
-# Determinism: `@`, np.dot and np.linalg.norm hand small vectors to BLAS, and `**` calls
-# libm's pow; both round differently on different CPUs. So the physics squares, adds and
-# cubes with plain arithmetic (dot3, r * r * r), which IEEE rounds the same everywhere.
 
 SYSTEMS = {}  # conservative systems, energy is the referee: name -> build(rng), filled by @system
 DAMPED_SYSTEMS = {}  # dissipative systems, the closed-form solution is the referee: the same
@@ -87,6 +69,21 @@ def system(name: str, returns: bool = False, damped: bool = False):
         return build
 
     return declare
+
+
+# Each system also knows its exact motion, exact(q0, v0, t): where a body starting at (q0, v0)
+# is at times t, (K,) -> (K, *q0.shape); the recording measures the integrators against it.
+# A system with no closed form says exact = None.
+#
+# The contract every system keeps, and simulate() checks: q and v are one body's
+# position and velocity, shape (3,), or a batch of N independent bodies, shape (N, 3),
+# stepped together. force(q, v) returns q's shape; energy(q, v) returns one number per
+# body, shape q.shape[:-1]. Three components let a planar orbit draw as a curve in 3D,
+# and chapter 3.4 adds a constraint force to this same force without changing the rest.
+#
+# Determinism: `@`, np.dot and np.linalg.norm hand small vectors to BLAS, and `**` calls
+# libm's pow; both round differently on different CPUs. So the physics squares, adds and
+# cubes with plain arithmetic (dot3, r * r * r), which IEEE rounds the same everywhere.
 
 
 def dot3(a, b):
@@ -534,34 +531,6 @@ def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: di
     return metrics
 
 
-def rounded(value):
-    """Every float in `value` (through dicts and lists) to 12 decimals, the chapter's format: RK4's drift
-    at the chapter's dt, ~5e-11, keeps two digits. From dt 0.004 down it is below 1e-12 and rounds to 0.0
-    in the file; the printed table keeps five significant digits of every drift."""
-    if isinstance(value, dict):
-        return {key: rounded(item) for key, item in value.items()}
-    if isinstance(value, list):
-        return [rounded(item) for item in value]
-    return round(value, 12) if isinstance(value, float) else value
-
-
-def metrics_text(metrics: dict) -> str:
-    """Strict JSON (no NaN or Infinity), keys sorted, so the same run gives the same bytes."""
-    return json.dumps(metrics, indent=2, sort_keys=True, allow_nan=False) + "\n"
-
-
-def cell(value: float, width: int, signed: bool = False) -> str:
-    """A table cell: 4 decimals where they fit, scientific notation where they would not."""
-    sign = "+" if signed else ""
-    text = f"{value:{sign}.4f}"
-    return f"{text:>{width}}" if len(text) < width - 1 else f"{value:>{sign}{width}.4e}"
-
-
-def sim_time(seconds: float) -> str:
-    """Simulated seconds as the reports print them: 20.00, or 1e-08 and 1e+12 where two decimals do not fit."""
-    return f"{seconds:.2f}" if 0.01 <= seconds < 1e9 else f"{seconds:.3g}"
-
-
 def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
     print(f"integrated {system_name} for {steps} steps of {dt} s -> {sim_time(steps * dt)} s of sim time")
     print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
@@ -652,23 +621,6 @@ def parse_args(argv=None) -> argparse.Namespace:
     if problem:
         parser.error(problem)
     return args
-
-
-def rerun_problem() -> str | None:
-    """Why the recording cannot be made (rerun-sdk missing or broken), or None. Imports it: needed anyway."""
-    try:
-        import rerun  # noqa: F401
-    except ImportError as error:
-        if error.name == "rerun":
-            return "the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun"
-        why = f"{type(error).__name__}: {error}".splitlines()[0]
-    except Exception as error:  # a broken install fails in many ways
-        why = f"{type(error).__name__}: {error}".splitlines()[0]
-    else:
-        return None
-    if "failed to map segment" in why or "Cannot allocate memory" in why:  # a memory limit (ulimit -v)
-        return f"not enough memory to load rerun-sdk ({why}); raise the memory limit or pass --no-rerun"
-    return f"rerun-sdk is installed but does not import ({why}); reinstall it (`pip install -e .`) or pass --no-rerun"
 
 
 @one_line_failures("engine.py", memory_hint="fewer --steps need less")  # Ctrl-C 130, SIGTERM 143, OS errors: one line

@@ -9,7 +9,8 @@ import math
 
 import numpy as np
 
-from engine import cell, dot3, sim_time
+from curriculum.common.report import cell, sim_time
+from engine import dot3
 
 BOUNDED_SLACK = 1e-3  # a steady oscillation's sampled peaks differ by less than this between halves
 
