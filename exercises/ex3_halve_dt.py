@@ -10,13 +10,14 @@ for the orbit, the cosine for the spring), and the energy's worst relative excur
 shows by what factor each error shrank from one rung to the next.
 """
 
+import sys
+
+from curriculum.common.exercise import start
+
+start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
+
 import argparse
 import math
-import sys
-from pathlib import Path
-
-if __package__ in (None, ""):  # run as a file (python exercises/ex3_halve_dt.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
@@ -36,7 +37,6 @@ SYSTEMS = ["orbit", "spring"]  # the two whose motion comes back, with their exa
 # a factor whose finer rung is under the floor would measure noise, so it is not shown.
 FLOOR = {"position": 1e-12, "energy": 1e-14}
 
-
 def measure(system_name: str = "orbit", seed: int = 0) -> dict:
     """{measure: {integrator: [error at each rung of its ladder]}} for measure in ("position", "energy")."""
     system = engine.build_system(system_name, np.random.default_rng(seed))
@@ -52,21 +52,17 @@ def measure(system_name: str = "orbit", seed: int = 0) -> dict:
             errors["energy"][name].append(engine.energy_drift(energies)["rel_max"])
     return errors
 
-
 def shrink_factors(rung_errors: list, floor: float) -> list:
     """error(dt) / error(dt / 2) down the ladder; None where the finer error is below the floor."""
     return [coarse / fine if fine > floor else None for coarse, fine in zip(rung_errors, rung_errors[1:], strict=False)]
-
 
 def settled(factors: list) -> float | None:
     """What the ladder converges to: the last factor above the round-off floor."""
     usable = [f for f in factors if f is not None]
     return usable[-1] if usable else None
 
-
 def nearest_power_of_two(factor: float) -> int:
     return 2 ** round(math.log2(factor))
-
 
 def print_ladder(errors: dict) -> None:
     for measure_name, by_integrator in errors.items():
@@ -78,7 +74,6 @@ def print_ladder(errors: dict) -> None:
             span = f"dt {ladder[0]:g} -> {ladder[-1]:g}:"
             print(f"  {name:<15}{span:<24}"
                   + "".join(f"{f:>8.2f}" if f else f"{'(round-off)':>12}" for f in cells))
-
 
 def story(system_name: str, errors: dict) -> list:
     """The explanation, from this run's numbers: every row of both tables, for this system."""
@@ -121,7 +116,6 @@ def story(system_name: str, errors: dict) -> list:
                  " and at which dt, before you quote a factor.")
     return lines
 
-
 @one_line_failures("exercises.ex3_halve_dt")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex3_halve_dt", description=__doc__,
@@ -148,7 +142,6 @@ def main(argv=None) -> int:
     print(f"{right} of 3.")
     explain(*story(system_name, errors))
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())
