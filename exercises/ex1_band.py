@@ -10,13 +10,14 @@ error that grows with the run keeps widening that range when the run doubles; on
 band stops widening.
 """
 
+import sys
+
+from curriculum.common.exercise import start
+
+start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
+
 import argparse
 import re
-import sys
-from pathlib import Path
-
-if __package__ in (None, ""):  # run as a file (python exercises/ex1_band.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, template, verdict
 
-NAMES = ["euler", "semi_implicit", "rk4"]  # the chapter's three
+NAMES = list(engine.CHAPTER_INTEGRATORS)  # the chapter's three
 WORDS = ["grows", "stays"]  # grows with the run, or stays in a band
 # The question's own phrases, and the chapter's word for a band, read as the two answers.
 SAYINGS = {"band": "stays", "in a band": "stays", "stays in a band": "stays", "stay in a band": "stays",
@@ -82,7 +83,7 @@ def measure(seed: int = 0) -> dict:
     table = {}
     for name in NAMES:
         _, _, energies = engine.simulate(engine.INTEGRATORS[name], system, DT, CHAPTER_STEPS * HORIZONS[-1])
-        error = (energies - energies[0]) / abs(energies[0])
+        error = engine.relative_energy_error(energies)
         table[name] = [(float(error[: CHAPTER_STEPS * h + 1].min()), float(error[: CHAPTER_STEPS * h + 1].max()))
                        for h in HORIZONS]
     return table
