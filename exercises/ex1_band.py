@@ -34,7 +34,7 @@ SAYINGS = {"band": "stays", "in a band": "stays", "stays in a band": "stays", "s
 HORIZONS = [1, 2, 4, 8, 16]  # multiples of the chapter's run
 CHAPTER_STEPS, DT = 2000, 0.01
 BAND_SLACK = 0.01  # a range that widens by less than 1% when the run doubles has stopped: a band
-SEEDS = range(1000)  # the sign question, asked of every seed the ensemble runs
+SEEDS = range(1000)  # is RK4's sign seed 0's? asked of these seeds, stepped as one batch
 
 
 class EachOf:
