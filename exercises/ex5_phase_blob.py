@@ -289,7 +289,8 @@ def main(argv=None) -> int:
         f" point's E within {band_bound:.4f} of its start, however long the run."
         " That is the band: not energy conserved, but a nearby energy conserved and the true one held near it.",
         "Explicit Euler has no such quadratic (its area grows, so every ellipse grows), and RK4's shrinks by"
-        " a hair each step: its energy creeps down, never back. Exercise 4 measured how long that takes to matter.",
+        " a hair each step: on this linear spring its energy goes down at every step, never back. Exercise 4"
+        " measured how long such a creep takes to matter on the orbit.",
     )
     if args.rerun:
         record(args.rrd, table)
