@@ -300,7 +300,7 @@ def euler_step(q, v, m, force, dt):
 
     q += dt * v_old;  v += dt * a_old.
     Not symplectic; order 1; 1 force evaluation per step.
-    Fails on anything that oscillates: it adds energy every step, so orbits spiral out.
+    What its energy does over a long run: exercise 1. How its error shrinks with dt: exercise 3.
     """
     a = force(q, v) / m
     return q + dt * v, v + dt * a  # the position moves with the OLD velocity
@@ -308,11 +308,11 @@ def euler_step(q, v, m, force, dt):
 
 @integrator("semi_implicit", order=1, force_evaluations=1)
 def semi_implicit_step(q, v, m, force, dt):
-    """Semi-implicit (symplectic) Euler, velocity first: MuJoCo's default, mjINT_EULER.
+    """Semi-implicit (symplectic) Euler, velocity first: MuJoCo's default, mjINT_EULER, on joints without damping.
 
     v += dt * a_old;  q += dt * v_new.
     Symplectic; order 1; 1 force evaluation per step.
-    Energy wobbles in a band that does not grow; it fails where motion never returns (freefall).
+    Write it yourself: exercise 2. Its energy over a long run: exercise 1; what symplectic means: exercise 5.
     """
     a = force(q, v) / m
     v_next = v + dt * a
@@ -326,7 +326,7 @@ def rk4_step(q, v, m, force, dt):
 
     Four slopes (start, midpoint twice, end), blended 1-2-2-1.
     Not symplectic; order 4; 4 force evaluations per step.
-    Tiny error per step, but it creeps one way and is never pulled back over long runs.
+    Write it yourself: exercise 2. Its energy over a long run: exercises 1 and 4; its order: exercise 3.
     """
 
     def deriv(q, v):  # the slope of the state: q changes at v, v at the acceleration
@@ -352,8 +352,10 @@ def implicit_step(q, v, m, force, dt, dforce_dv):
     Solves m (v_new - v) / dt = force(q, v) + dforce_dv (v_new - v) for v_new, then q += dt * v_new.
     With a linear damper that is the force at (q_old, v_new): implicit in the damping, explicit
     in the spring. It is MuJoCo's Euler on a joint with damping, and its implicitfast (M - h qDeriv).
-    Order 1; 1 force evaluation per step; with dforce_dv = 0 it is semi_implicit_step exactly.
-    What it buys under stiff damping is exercise 6 (predict first); docs/damping.md has the stability map.
+    Symplectic only where dforce_dv = 0; order 1; 1 force evaluation per step (and dforce_dv).
+    With dforce_dv = 0 it is semi_implicit_step, bit for bit where 1/m is exact (m = 1, 2, 0.5, ...);
+    for other masses the last bit can differ, as it multiplies by 1/m where that one divides by m.
+    What it buys under stiff damping: exercise 6 (predict first); docs/damping.md has the stability map.
     """
     # MuJoCo factorizes m - dt * qDeriv and multiplies by the inverse of its diagonal, so we do
     # too and match it to the bit (its mjINT_IMPLICIT divides instead: last-bit differences).

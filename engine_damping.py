@@ -71,4 +71,5 @@ def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solut
         else:
             print(f"{name:<14}{d['err_max']:>14.4e}{d['err_final']:>12.4e}{'yes' if d['bounded'] else 'NO':>9}"
                   f"{cell(d['energy_lost'], 10)}{cell(d['damper_work'], 13)}{d['work_mismatch']:>+13.4e}")
-    print("truth: the closed-form solution; damper work: the integral of b |v|^2, by composite Simpson")
+    print("truth: the closed-form solution; bounded: the run's second half swings no wider than its first;\n"
+          "E lost: E0 - E_final; damper work: the integral of b |v|^2 (composite Simpson); mismatch/E0: their gap / E0")

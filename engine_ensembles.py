@@ -35,8 +35,8 @@ def ensemble_problem(steps: int, members: int) -> str | None:
     needed = ensemble_bytes(steps, members)
     if needed <= ENSEMBLE_MEMORY:
         return None
-    return (f"{members:,} members x {steps:,} steps needs about {needed / 1e9:.1f} GB, over the"
-            f" {ENSEMBLE_MEMORY / 1e9:g} GB this run may use: fewer members or fewer --steps")
+    return (f"{members:,} members x {steps:,} steps needs about {memory_over_limit(needed)}"
+            " this run may use: fewer members or fewer --steps")
 
 
 def ensemble_drift(energies: np.ndarray) -> dict:
@@ -100,9 +100,30 @@ def ensemble_block(system_name: str, seeds: range, ensemble: dict) -> dict:
     return block
 
 
+# What one seed changes in each system (engine.build_system draws it; tests/test_docs.py holds the two together).
+SEED_CHANGES = {"orbit": "the orbit's starting speed, 1 +- 0.05 (5%), and with it the ellipse",
+                "spring": "the spring's starting stretch, 1 +- 0.1 m (10%)",
+                "freefall": "the body's launch speed, 3 +- 0.5 m/s"}
+
+
+def counted(count: int, noun: str) -> str:
+    """'1 member', '1,000 members'."""
+    return f"{count:,} {noun}" if count == 1 else f"{count:,} {noun}s"
+
+
+def memory_over_limit(needed: float) -> str:
+    """'2.0 GB, over the 1 GB': as many decimals as it takes for the need to read as more than the limit."""
+    for decimals in range(1, 10):
+        shown = f"{needed / 1e9:.{decimals}f}"
+        if float(shown) > ENSEMBLE_MEMORY / 1e9:
+            break
+    return f"{shown} GB, over the {ENSEMBLE_MEMORY / 1e9:g} GB"
+
+
 def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
     """The ensemble's table: per integrator, min/median/max over the members of both drifts."""
-    print(f"\nensemble of seeds {seeds[0]}..{seeds[-1]}: {len(seeds):,} members stepped together")
+    print(f"\nensemble of seeds {seeds[0]}..{seeds[-1]}: {counted(len(seeds), 'member')} stepped together")
+    print(f"(a seed changes {SEED_CHANGES[system_name]})")
     if system_name == "spring":
         print("(the spring is linear: a seed only scales the amplitude, so every member's relative drift\n"
               " is the same up to round-off; the spread below is not a finding)")
@@ -115,9 +136,9 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
     if "ordering_holds" in block:
         head = "energy drift ordering euler >> semi_implicit(bounded) > rk4:"
         if block["ordering_not_judged"] == len(seeds):
-            print(f"{head} cannot judge any of the {len(seeds):,} seeds")
+            print(f"{head} cannot judge {'the one seed' if len(seeds) == 1 else f'any of the {len(seeds):,} seeds'}")
         else:
-            print(f"{head} holds for {block['ordering_holds']:,} of {len(seeds):,} seeds")
+            print(f"{head} holds for {block['ordering_holds']:,} of {counted(len(seeds), 'seed')}")
         roundoff, left_band = block["ordering_roundoff_only"], block["ordering_left_band"]
         if block["ordering_not_judged"] - roundoff - left_band:
             print(f"  {block['ordering_not_judged'] - roundoff - left_band:,} diverged under some integrator and"
@@ -130,7 +151,8 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
         fails = block["ordering_fails_for_seeds"]
         if fails:
             more = f" and {len(fails) - 10:,} more" if len(fails) > 10 else ""
-            print(f"  it fails for seed {', '.join(map(str, fails[:10]))}{more}: rerun one with --seed to look")
+            print(f"  it fails for {'seed' if len(fails) == 1 else 'seeds'} {', '.join(map(str, fails[:10]))}{more}:"
+                  " rerun one with --seed to look")
 
 
 def main(args, steps: int, started: float) -> int:

@@ -18,6 +18,7 @@ start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs
 import argparse
 import math
 import re
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -60,10 +61,20 @@ def blob_edge(points: int = EDGE_POINTS):
 def shoelace_areas(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Area inside each closed polygon (x[k, i], y[k, i]) over i, one per row k, by the shoelace formula.
 
-    math.fsum adds each row's terms exactly and rounds once, so the only error left in an area is the
-    rounding already in the points themselves: that is what lets a change of 1e-9 show."""
+    Each product x_i y_(i+1) is rounded once, to about 1e-16 of itself, and math.fsum then adds the
+    rounded terms exactly and rounds once more. So an area carries the rounding of its products on top
+    of the rounding already in the points: some 1e-15 of the area while the coordinates are the size of
+    the disc, which is what lets a change of 1e-9 show. On a long thin needle the products are far larger
+    than the area and cancel, and their rounding is what shows (see exact_area)."""
     terms = x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y
     return np.array([0.5 * abs(math.fsum(row)) for row in terms.tolist()])
+
+
+def exact_area(x: np.ndarray, y: np.ndarray) -> Fraction:
+    """The area inside one polygon of float points, in exact rational arithmetic: no rounding at all."""
+    xs, ys = [Fraction(value) for value in x.tolist()], [Fraction(value) for value in y.tolist()]
+    return abs(sum(a * d - c * b for a, b, c, d in zip(xs, ys, xs[1:] + xs[:1], ys[1:] + ys[:1], strict=True))) / 2
+
 
 def run_blob(name: str, dt: float, steps: int):
     """Step the whole edge at once. Returns areas (steps+1,) and the edge's positions x and
@@ -243,6 +254,8 @@ def main(argv=None) -> int:
     h = omega * PAST_LIMIT_DT
     areas, x, v = run_blob("semi_implicit", PAST_LIMIT_DT, PAST_LIMIT_STEPS)
     growth = np.max(energy(x[-1], v[-1]) / energy(x[0], v[0]))
+    needle_change = float(exact_area(x[-1], v[-1]) / exact_area(x[0], v[0]) - 1)  # exact, then rounded once
+    needle_products = np.max(np.abs(x[-1] * np.roll(v[-1], -1)))  # the shoelace terms' size on the needle
     semi = table["semi_implicit"]
     true_band, nearby_band = modified_energy_drift(semi["x"], semi["v"], DT)
     band_bound = (1 + omega * DT / 2) / (1 - omega * DT / 2) - 1  # E/E0 between the two ends of E~'s band
@@ -253,19 +266,22 @@ def main(argv=None) -> int:
         f" {STEPS} steps that is {1 + table['euler']['closed_form']:.4f}, and the blob measures"
         f" {1 + table['euler']['measured']:.4f}. The spring is linear, so the polygon maps to a polygon and"
         " its area follows the determinant exactly, however coarse the edge.",
-        f"- semi_implicit: determinant exactly 1. The measured change, {semi['measured']:+.1e}, is round-off"
-        " in the points: it is the floor below which nothing can be seen.",
+        f"- semi_implicit: determinant exactly 1. The measured change, {semi['measured']:+.1e}, is round-off,"
+        " in the points and in the shoelace formula's products: it is the floor below which nothing can be seen.",
         f"- rk4: determinant 1 - (omega dt)^6/72 + (omega dt)^8/576, a shrink of {-table['rk4']['closed_form']:.2e}"
         f" over the run, measured {table['rk4']['measured']:+.2e}:"
         f" about {abs(table['rk4']['measured']) / rk4_noise:.0e} times the floor. It shows because float64 keeps"
-        " 16 digits, the area sum is exact (math.fsum)"
+        " 16 digits, the shoelace sum adds its (rounded) products exactly (math.fsum)"
         f" and the closed form is computed as expm1/log1p. At dt {COARSE_DT} the same formula gives"
         f" {coarse['rk4']['closed_form']:+.2e}, plain to see.",
         "What the area has to do with energy: area 1 alone is not enough. Past omega dt = 2 the"
         f" semi-implicit step's trace 2 - (omega dt)^2 falls below -2. At dt {PAST_LIMIT_DT} (omega dt = {h:g})"
-        f" its determinant is still exactly 1 and after {PAST_LIMIT_STEPS} steps the blob's area has changed by"
-        f" {areas[-1] / areas[0] - 1:+.1e} (round-off on a long needle), yet the energy of its points has grown"
-        f" {growth:.1e} times: the disc is stretched into a thin needle that runs off to infinity.",
+        f" its determinant is still exactly 1, and after {PAST_LIMIT_STEPS} steps the area of the blob's points,"
+        f" computed exactly (fractions), has changed by {needle_change:+.1e}:"
+        " round-off in the points. (The shoelace formula in floats says"
+        f" {areas[-1] / areas[0] - 1:+.1e}: its products, up to {needle_products:.0e}, cancel"
+        f" to an area of {areas[-1]:.2f}, and their rounding is what it measures.) Yet the energy of the points"
+        f" has grown {growth:.1e} times: the disc is stretched into a thin needle that runs off to infinity.",
         f"With area 1 and a stable step (|trace| < 2, here {2 - (omega * DT) ** 2:g} at dt {DT}) there is a"
         " nearby quadratic the step keeps exactly: E~ = E - k dt x v / 2. Over every point and step it changed by"
         f" at most {nearby_band:.1e} (round-off), while the true energy E moved by at most {true_band:.2e} and"
@@ -273,7 +289,8 @@ def main(argv=None) -> int:
         f" point's E within {band_bound:.4f} of its start, however long the run."
         " That is the band: not energy conserved, but a nearby energy conserved and the true one held near it.",
         "Explicit Euler has no such quadratic (its area grows, so every ellipse grows), and RK4's shrinks by"
-        " a hair each step: its energy creeps down, never back. Exercise 4 measured how long that takes to matter.",
+        " a hair each step: on this linear spring its energy goes down at every step, never back. Exercise 4"
+        " measured how long such a creep takes to matter on the orbit.",
     )
     if args.rerun:
         record(args.rrd, table)

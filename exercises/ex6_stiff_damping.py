@@ -130,17 +130,18 @@ def main(argv=None) -> int:
         "",
         f"The maps: stiffness per step w = dt sqrt(k/m) up, damping per step c = dt b/m across; '#' stayed"
         f" bounded for 2000 steps, '.' did not; your spring is the bottom row at c = {c:g} ('@' bounded,"
-        f" 'x' not). From the eigenvalues of each one-step matrix, at w = {w:g} the bounded dampings are: "
+        f" 'x' not). From the eigenvalues of each one-step matrix, at w = {w:g} the bounded dampings are"
+        " (ends included: there an eigenvalue has modulus 1 and the motion neither grows nor decays): "
         + ", ".join(f"{name} {stability_map.shown(bounds[name], 5)}" for name in NAMES) + ".",
         f"- Both Eulers take the damping at the OLD velocity: v_new = v - c v = (1 - c) v = {1 - c:g} v. Past"
         " c = 2 that factor is below -1: the velocity flips sign and grows every step. Explicit Euler also has"
-        " a floor, c > w^2: with too little damping it adds energy, as it does to the orbit.",
+        " a floor, c >= w^2: with less damping than that it adds energy, as it does to the orbit.",
         f"- rk4 samples the damping four times per step; its factor on a pure decay is 1 - c + c^2/2 - c^3/6 + c^4/24,"
-        f" {1 - c + c * c / 2 - c * c * c / 6 + c * c * c * c / 24:.3f} at c = {c:g}: inside (-1, 1) up to c = 2.785,"
-        " and no further. More accurate per step is not more stable.",
+        f" {1 - c + c * c / 2 - c * c * c / 6 + c * c * c * c / 24:.3f} at c = {c:g}: between -1 and 1 up to c = 2.785,"
+        " where it reaches 1, and no further. More accurate per step is not more stable.",
         f"- implicit takes it at the NEW velocity: m (v_new - v) = -dt b v_new, so v_new = v / (1 + c) ="
         f" {1 / (1 + c):.3f} v: it shrinks for every c. Its spring is still explicit, though (look at the top"
-        " rows): it needs w < sqrt(4 + 2c), so a stiff enough spring beats it too.",
+        " rows): it needs w <= sqrt(4 + 2c) (at c = 0, w < 2), so a stiff enough spring beats it too.",
         "- Where MuJoCo decides it: src/engine/engine_forward.c at 3.10.0, in mj_EulerSkip, under the comment"
         " 'qH += h*diag(B)':",
     )

@@ -92,8 +92,9 @@ def test_rk4_is_exact_on_freefall_to_round_off():
 
 @pytest.mark.slow
 def test_semi_implicit_energy_band_is_flat_over_a_million_steps():
-    """Symplectic: the worst excursion after 10^4 steps is the worst after 10^6 (about 159,000
-    orbits later), to 1 part in 10^6, while explicit Euler's keeps growing."""
+    """Symplectic: the worst excursion after 10^4 steps is the worst after 10^6 (10^6 steps of dt 0.01 are
+    about 1,526 orbits, 1,511 of them after the first 10^4 steps), to 1 part in 10^6, while explicit Euler's
+    keeps growing."""
     system = engine.build_system("orbit", np.random.default_rng(0))
     _, _, energies = engine.simulate(engine.semi_implicit_step, system, 0.01, 1_000_000, every=1_000_000)
     band_1e4 = engine.energy_drift(energies[: 10_000 + 1])["rel_max"]

@@ -7,9 +7,9 @@
     start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
 
 - `start(__file__)` installs the signal guard (curriculum.common.interrupts) before anything heavy loads,
-  and, when the exercise is run as a file (`python exercises/ex1_runaway.py`, or from inside exercises/),
+  and, when the exercise is run as a file (`python exercises/ex1_band.py`, or from inside exercises/),
   puts the repo on the import path so `import engine` and `import exercises.support...` work as they do
-  under `python -m exercises.ex1_runaway`. It loads nothing heavy.
+  under `python -m exercises.ex1_band`. It loads nothing heavy.
 - `exercises(folder)` lists a chapter's exercises by file name, `exN_topic.py`, in order. An exercise with a
   checker beside it (`check_exN.py`) is one the student writes; the others are predict-then-run. The tests
   and tools/bench_exercises.py read this list, so a new exercise needs no list edited (see docs/DEVELOPING.md).

@@ -1,6 +1,6 @@
 """Predict-then-run, shared by every predict-then-run exercise: no figure before a committed answer.
 
-How an exercise uses it (ex1_runaway.py is the shortest example):
+How an exercise uses it (ex4_long_run.py is a short example):
 
     parser = OneLineParser(prog="exercises.ex5_something", description=__doc__, ...)  # curriculum.common.cli
     prediction = ask(parser, "The question, ending in a question mark?", OneOf(["a", "b"]), argv)
@@ -141,7 +141,7 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
 
 
 def how_it_was_run(module: str) -> str:
-    """`python -m exercises.ex1_runaway`, or `python ex1_runaway.py` if the student ran the file itself."""
+    """`python -m exercises.ex1_band`, or `python ex1_band.py` if the student ran the file itself."""
     script = Path(sys.argv[0]) if sys.argv and sys.argv[0] else None
     main_spec = getattr(sys.modules.get("__main__"), "__spec__", None)
     if main_spec is None and script is not None and script.stem == module.rpartition(".")[2]:

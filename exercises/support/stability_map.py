@@ -1,6 +1,6 @@
 """The stability map of the damped spring: where each integrator stays bounded.
 
-    python -m exercises.support.stability_map        # the table in docs/damping.md (about 13 s of CPU time)
+    python -m exercises.support.stability_map        # the table in docs/damping.md (7 to 13 s of CPU time)
 
 Support for exercise 6 and docs/damping.md, not an exercise: its output answers exercise 6.
 
@@ -10,7 +10,8 @@ stays bounded twice, independently:
 - measured: the engine's own step functions run on a batch of damped springs, one per c, and
   the edges between bounded and unbounded are found by bisection;
 - analytic: the one-step matrix (q, dt v) -> (q', dt v') of each integrator on this linear
-  system is bounded while both of its eigenvalues lie inside the unit circle. For the Eulers
+  system is bounded while both of its eigenvalues lie inside the unit circle or on it (there, if
+  the two are not equal, the motion neither grows nor decays: the intervals are closed). For the Eulers
   that condition has a closed form; for RK4 the eigenvalues are R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24
   at the oscillator's own z = dt * eigenvalue, and the edge is found by bisection on |R(z)| = 1.
 """
@@ -40,13 +41,17 @@ BISECTIONS = 24
 
 
 def analytic_interval(name: str, w: float) -> tuple[float, float] | None:
-    """The dampings c with both one-step eigenvalues inside the unit circle, or None if there are none.
+    """The dampings (low, high), both ends included, where the one-step matrix stays bounded; None if none.
 
     With trace T and determinant D of the 2x2 one-step matrix, both eigenvalues lie inside the
-    unit circle exactly when |D| < 1 and |T| < 1 + D (the Jury conditions). On (q, dt v):
-    - euler:         [[1, 1], [-w^2, 1 - c]]:  D = 1 - c + w^2, T = 2 - c  ->  w^2 < c < 2 + w^2/2
-    - semi_implicit: v first, then q with it:  D = 1 - c,       T = 2 - c - w^2  ->  0 <= c < 2 - w^2/2
-    - implicit:      damping at the new v, s = 1/(1 + c):  D = s, T = 1 + s - s w^2  ->  c > w^2/2 - 2
+    unit circle exactly when |D| < 1 and |T| < 1 + D (the Jury conditions). At the ends, where one
+    becomes an equality, an eigenvalue has modulus 1 and the motion neither grows nor decays, so the
+    ends are bounded too; except at w = 2, where the end puts both eigenvalues at -1 and the motion
+    grows linearly: there the Eulers' intervals shrink to that one point and are None, and the
+    implicit step's (0, inf) holds for every c > 0 but not c = 0. On (q, dt v):
+    - euler:         [[1, 1], [-w^2, 1 - c]]:  D = 1 - c + w^2, T = 2 - c  ->  w^2 <= c <= 2 + w^2/2
+    - semi_implicit: v first, then q with it:  D = 1 - c,       T = 2 - c - w^2  ->  0 <= c <= 2 - w^2/2
+    - implicit:      damping at the new v, s = 1/(1 + c):  D = s, T = 1 + s - s w^2  ->  c >= w^2/2 - 2
     - rk4:           no closed form; bisection on the eigenvalues R(z) (see rk4_growth).
     """
     w2 = w * w
