@@ -61,9 +61,8 @@ def measure_all() -> dict:
 def print_table(runs: dict, guess: dict) -> dict:
     """The graded table; returns the answers {system: word}."""
     answers = {name: shadow.how_far(run) for name, run in runs.items()}
-    print(f"semi-implicit Euler, seed 0, {STEPS:,} steps of dt {DT} ({STEPS * DT:g} s). A band is the worst"
-          " |X - X0| / |X0| over the run;\n"
-          "the round-off bound is the most that rounding alone could move E~.")
+    print(f"semi-implicit Euler, seed 0, {STEPS:,} steps of dt {DT} ({STEPS * DT:g} s)")
+    print("band: the worst |X - X0| / |X0| over the run; round-off bound: the most rounding alone could move E~")
     print(f"{'system':<10}{'E band':>12}{'E~ band':>12}{'round-off bound':>17}{'E~ moved':>11}   you said")
     for name, run in runs.items():
         mark = "right" if guess[name] == answers[name] else "no"
