@@ -27,7 +27,6 @@ guard("engine.py")  # from here on, Ctrl-C or SIGTERM ends in one line (exit 130
 
 import argparse  # imports come below the guard on purpose: numpy takes a moment to load
 import functools
-import json
 import math
 import time
 from pathlib import Path
@@ -36,40 +35,45 @@ import numpy as np
 
 from curriculum.common.cli import OneLineParser, int_in, name_arg, positive_finite, progress_printer
 from curriculum.common.device import banner, wall_clock
-from curriculum.common.outputs import (
-    content_id,
-    folder_arg,
-    folder_problem,
-    one_line_failures,
-    write_run,
-)
-from engine_ensembles import (
-    ENSEMBLE_MEMORY,
-    ROUNDOFF_DRIFT,
-    ensemble_block,
-    ensemble_bytes,
-    ensemble_every,
-    print_ensemble_report,
-    summarize_ensemble,
-)
+from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
+from curriculum.common.report import cell, metrics_text, rounded, sim_time
+from curriculum.common.viewer import rerun_problem
 
 # --- settings ---
 
 DEFAULT_STEPS = 2000  # the chapter's run: 20 s of sim time at dt 0.01
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
 MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
-MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
-CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
-PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
-BOUNDED_SLACK = 1e-3  # a steady oscillation's sampled peaks differ by less than this between halves
+DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (300 is the stiff case)
 METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 
 
 # --- systems ---
 # A system is the physics: where the body starts (q0, v0), its mass m, the force law
 # force(q, v), and the true total energy(q, v), which a perfect integrator holds constant.
-# Each also knows its exact motion, exact(q0, v0, t): where a body starting at (q0, v0) is
-# at times t, (K,) -> (K, *q0.shape). The recording measures the integrators against it.
+
+SYSTEMS = {}  # conservative systems, energy is the referee: name -> build(rng), filled by @system
+DAMPED_SYSTEMS = {}  # dissipative systems, the closed-form solution is the referee: the same
+
+
+def system(name: str, returns: bool = False, damped: bool = False):
+    """Declare the system that the decorated build(rng) returns, under `name`. This is its one entry.
+
+    returns: the motion comes back where it was (orbit, spring), so the energy error can average out
+    and the drift ordering is judged on it. damped: energy drains by design (the system also declares
+    dissipation(q, v) and dforce_dv), so the closed-form solution referees it instead.
+    """
+    def declare(build):
+        build.returns = returns
+        (DAMPED_SYSTEMS if damped else SYSTEMS)[name] = build
+        return build
+
+    return declare
+
+
+# Each system also knows its exact motion, exact(q0, v0, t): where a body starting at (q0, v0)
+# is at times t, (K,) -> (K, *q0.shape); the recording measures the integrators against it.
+# A system with no closed form says exact = None.
 #
 # The contract every system keeps, and simulate() checks: q and v are one body's
 # position and velocity, shape (3,), or a batch of N independent bodies, shape (N, 3),
@@ -81,10 +85,6 @@ METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 # libm's pow; both round differently on different CPUs. So the physics squares, adds and
 # cubes with plain arithmetic (dot3, r * r * r), which IEEE rounds the same everywhere.
 
-SYSTEMS = ("orbit", "spring", "freefall")  # conservative: energy is the referee
-DAMPED_SYSTEMS = ("damped_spring",)  # dissipative: the closed-form solution is the referee
-DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (300 is the stiff case)
-
 
 def dot3(a, b):
     """a . b over the last axis, summed in a fixed order: (3,) gives a number, (N, 3) gives (N,)."""
@@ -92,94 +92,120 @@ def dot3(a, b):
     return x + y + z
 
 
-def build_system(name: str, rng: np.random.Generator, damping: float = DAMPING) -> dict:
-    """Return {name, q0, v0, m, force, energy, exact} for one of the systems.
+@system("orbit", returns=True)
+def orbit(rng):
+    # A unit mass around a fixed attractor at the origin, inverse-square pull, GM = mu = 1.
+    # Speed 1 would be a circle; the jitter makes it an ellipse, which still closes exactly.
+    mu, m = 1.0, 1.0
+    q0 = np.array([1.0, 0.0, 0.0])
+    v0 = np.array([0.0, 1.0 + rng.uniform(-0.05, 0.05), 0.0])
 
-    The seed jitters one initial condition per system (orbit speed, spring stretch,
-    launch speed), so --seed matters while the ordering of the drifts does not change.
-    The damped spring also declares dforce_dv and dissipation (see there).
+    def force(q, v):
+        r = np.sqrt(dot3(q, q))  # distance to the attractor, one per body
+        return -mu * m * q / (r * r * r)[..., None]  # magnitude mu m / r^2, pointing at the attractor
+
+    def energy(q, v):
+        return 0.5 * m * dot3(v, v) - mu * m / np.sqrt(dot3(q, q))  # kinetic + gravitational
+
+    def exact(q0, v0, t):
+        return kepler_orbit(q0, v0, t, mu)
+
+    return {"q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact, "mu": mu}
+
+
+@system("spring", returns=True)
+def spring(rng):
+    # A mass on an ideal Hooke spring: pulled straight back, in proportion to the stretch.
+    # Undamped, so the amplitude and the energy should stay exactly where they started.
+    k, m = 4.0, 1.0  # angular frequency sqrt(k/m) = 2 rad/s
+    q0 = np.array([1.0 + rng.uniform(-0.1, 0.1), 0.0, 0.0])
+    v0 = np.zeros(3)
+
+    def force(q, v):
+        return -k * q  # Hooke: restoring, in proportion to the stretch
+
+    def energy(q, v):
+        return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring
+
+    def exact(q0, v0, t):
+        w, t = np.sqrt(k / m), times_for(t, q0)
+        return q0 * np.cos(w * t) + v0 / w * np.sin(w * t)
+
+    return {"q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact, "k": k}
+
+
+@system("freefall")
+def freefall(rng):
+    # A body thrown sideways under constant gravity. Energy is conserved here too, but the
+    # motion never comes back, and that is what breaks the neat story of the other two.
+    g, m = 9.81, 1.0
+    q0 = np.array([0.0, 0.0, 10.0])
+    v0 = np.array([3.0 + rng.uniform(-0.5, 0.5), 0.0, 0.0])
+    gravity = np.array([0.0, 0.0, -g])
+    weight = m * gravity
+
+    def force(q, v):
+        return np.full(q.shape, weight)  # the same weight on every body
+
+    def energy(q, v):
+        return 0.5 * m * dot3(v, v) + m * g * q[..., 2]  # kinetic + height
+
+    def exact(q0, v0, t):
+        t = times_for(t, q0)
+        return q0 + v0 * t + 0.5 * gravity * t * t  # the parabola
+
+    return {"q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact, "g": g}
+
+
+@system("damped_spring", damped=True)
+def damped_spring(rng, damping=DAMPING):
+    # The spring again, with a damper pulling against the velocity: force -k q - b v.
+    # Energy now drains away, so the referee is the closed-form solution instead, and the
+    # energy lost must match the damper's work, the time integral of b |v|^2.
+    k, m, b = 4.0, 1.0, float(damping)
+    q0 = np.array([1.0 + rng.uniform(-0.1, 0.1), 0.0, 0.0])
+    v0 = np.zeros(3)
+
+    def force(q, v):
+        return -k * q - b * v  # spring plus damper, added in MuJoCo's order
+
+    def energy(q, v):
+        return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring: what the damper drains
+
+    def dissipation(q, v):
+        return b * dot3(v, v)  # the power the damper takes out, one number per body
+
+    def exact(q0, v0, t):  # the truth from any start, so a batch's rows each get their own
+        return damped_oscillator(q0, v0, k, m, b, t)
+
+    # What a velocity-dependent force declares for implicit_step: d force / d v, here -b
+    # times the identity (MuJoCo's qDeriv). Conservative systems have none.
+    return {"q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact,
+            "dissipation": dissipation, "dforce_dv": -b, "k": k, "b": b}
+
+
+def build_system(name: str, rng: np.random.Generator, damping: float | None = None) -> dict:
+    """The system `name` as a dict {name, returns, q0, v0, m, force, energy, exact, ...}.
+
+    The seed jitters one initial condition per system (orbit speed, spring stretch, launch
+    speed), so --seed matters while the ordering of the drifts does not change. `damping`,
+    if given, is the damped spring's b.
     """
-    if name == "orbit":
-        # A unit mass around a fixed attractor at the origin, inverse-square pull, GM = mu = 1.
-        # Speed 1 would be a circle; the jitter makes it an ellipse, which still closes exactly.
-        mu, m = 1.0, 1.0
-        q0 = np.array([1.0, 0.0, 0.0])
-        v0 = np.array([0.0, 1.0 + rng.uniform(-0.05, 0.05), 0.0])
+    build = SYSTEMS.get(name) or DAMPED_SYSTEMS.get(name)
+    if build is None:
+        raise ValueError(f"unknown system {name!r}; choose one of {', '.join([*SYSTEMS, *DAMPED_SYSTEMS])}")
+    settings = {} if damping is None else {"damping": damping}
+    return {"name": name, "returns": build.returns, **build(rng, **settings)}
 
-        def force(q, v):
-            r = np.sqrt(dot3(q, q))  # distance to the attractor, one per body
-            return -mu * m * q / (r * r * r)[..., None]  # magnitude mu m / r^2, pointing at the attractor
 
-        def energy(q, v):
-            return 0.5 * m * dot3(v, v) - mu * m / np.sqrt(dot3(q, q))  # kinetic + gravitational
+def build_ensemble(name: str, seeds) -> dict:
+    """One system, N bodies stepped as a batch: q0 and v0 become (N, 3), one row per seed.
 
-        def exact(q0, v0, t):
-            return kepler_orbit(q0, v0, t, mu)
-
-    elif name == "spring":
-        # A mass on an ideal Hooke spring: pulled straight back, in proportion to the stretch.
-        # Undamped, so the amplitude and the energy should stay exactly where they started.
-        k, m = 4.0, 1.0  # angular frequency sqrt(k/m) = 2 rad/s
-        q0 = np.array([1.0 + rng.uniform(-0.1, 0.1), 0.0, 0.0])
-        v0 = np.zeros(3)
-
-        def force(q, v):
-            return -k * q  # Hooke: restoring, in proportion to the stretch
-
-        def energy(q, v):
-            return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring
-
-        def exact(q0, v0, t):
-            w, t = np.sqrt(k / m), times_for(t, q0)
-            return q0 * np.cos(w * t) + v0 / w * np.sin(w * t)
-
-    elif name == "freefall":
-        # A body thrown sideways under constant gravity. Energy is conserved here too, but the
-        # motion never comes back, and that is what breaks the neat story of the other two.
-        g, m = 9.81, 1.0
-        q0 = np.array([0.0, 0.0, 10.0])
-        v0 = np.array([3.0 + rng.uniform(-0.5, 0.5), 0.0, 0.0])
-        gravity = np.array([0.0, 0.0, -g])
-        weight = m * gravity
-
-        def force(q, v):
-            return np.full(q.shape, weight)  # the same weight on every body
-
-        def energy(q, v):
-            return 0.5 * m * dot3(v, v) + m * g * q[..., 2]  # kinetic + height
-
-        def exact(q0, v0, t):
-            t = times_for(t, q0)
-            return q0 + v0 * t + 0.5 * gravity * t * t  # the parabola
-
-    elif name == "damped_spring":
-        # The spring again, with a damper pulling against the velocity: force -k q - b v.
-        # Energy now drains away, so the referee is the closed-form solution instead, and the
-        # energy lost must match the damper's work, the time integral of b |v|^2.
-        k, m, b = 4.0, 1.0, float(damping)
-        q0 = np.array([1.0 + rng.uniform(-0.1, 0.1), 0.0, 0.0])
-        v0 = np.zeros(3)
-
-        def force(q, v):
-            return -k * q - b * v  # spring plus damper, added in MuJoCo's order
-
-        def energy(q, v):
-            return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring: what the damper drains
-
-        def dissipation(q, v):
-            return b * dot3(v, v)  # the power the damper takes out, one number per body
-
-        def exact(q0, v0, t):  # the truth from any start, so a batch's rows each get their own
-            return damped_oscillator(q0, v0, k, m, b, t)
-
-        # What a velocity-dependent force declares for implicit_step: d force / d v, here -b
-        # times the identity (MuJoCo's qDeriv). Conservative systems have none.
-        return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy,
-                "dforce_dv": -b, "dissipation": dissipation, "exact": exact, "k": k, "b": b}
-
-    else:
-        raise ValueError(f"unknown system {name!r}; choose one of {', '.join(SYSTEMS + DAMPED_SYSTEMS)}")
-    return {"name": name, "q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact}
+    Row i starts exactly where build_system(name, default_rng(seeds[i])) does; the force
+    and energy laws are the same for every member, so they are shared.
+    """
+    members = [build_system(name, np.random.default_rng(seed)) for seed in seeds]
+    return {**members[0], "q0": np.stack([s["q0"] for s in members]), "v0": np.stack([s["v0"] for s in members])}
 
 
 def times_for(t, q0):
@@ -239,21 +265,36 @@ def damped_oscillator(q0, v0, k: float, m: float, b: float, t):
     return ab[..., 0].reshape(one_per_row) * q0 + ab[..., 1].reshape(one_per_row) * v0
 
 
-def build_ensemble(name: str, seeds) -> dict:
-    """One system, N bodies stepped as a batch: q0 and v0 become (N, 3), one row per seed.
-
-    Row i starts exactly where build_system(name, default_rng(seeds[i])) does; the force
-    and energy laws are the same for every member, so they are shared.
-    """
-    members = [build_system(name, np.random.default_rng(seed)) for seed in seeds]
-    return {**members[0], "q0": np.stack([s["q0"] for s in members]), "v0": np.stack([s["v0"] for s in members])}
+def kepler_period(q0, v0, mu: float = 1.0) -> float:
+    """Kepler's third law, P = 2 pi sqrt(a^3 / mu), with a from vis-viva as in kepler_orbit."""
+    a = 1.0 / (2.0 / np.sqrt(dot3(q0, q0)) - dot3(v0, v0) / mu)
+    return float(2.0 * np.pi * np.sqrt(a * a * a / mu))
 
 
 # --- integrators ---
 # Each takes the state (q, v) and returns it one timestep dt later. They differ only in
-# where they look at the velocity and the force, and that is the whole lesson.
+# where they look at the velocity and the force, and that is the whole lesson. Each is
+# declared once, with its passport: its order and its force evaluations per step.
+
+INTEGRATORS = {}  # name -> step(q, v, m, force, dt), filled by @integrator
 
 
+def integrator(name: str, order: int, force_evaluations: int, chapter: bool = True, needs: str | None = None):
+    """Declare the decorated step under `name`. This is its one entry.
+
+    chapter: one of the chapter's three, which the report's verdict and the exercises compare.
+    needs: a fact the step reads from the system (implicit_step needs dforce_dv), so it is
+    offered only on systems that declare it.
+    """
+    def declare(step):
+        step.order, step.force_evaluations, step.chapter, step.needs = order, force_evaluations, chapter, needs
+        INTEGRATORS[name] = step
+        return step
+
+    return declare
+
+
+@integrator("euler", order=1, force_evaluations=1)
 def euler_step(q, v, m, force, dt):
     """Explicit (forward) Euler: everything from the old state.
 
@@ -265,6 +306,7 @@ def euler_step(q, v, m, force, dt):
     return q + dt * v, v + dt * a  # the position moves with the OLD velocity
 
 
+@integrator("semi_implicit", order=1, force_evaluations=1)
 def semi_implicit_step(q, v, m, force, dt):
     """Semi-implicit (symplectic) Euler, velocity first: MuJoCo's default, mjINT_EULER.
 
@@ -278,6 +320,7 @@ def semi_implicit_step(q, v, m, force, dt):
     return q_next, v_next
 
 
+@integrator("rk4", order=4, force_evaluations=4)
 def rk4_step(q, v, m, force, dt):
     """Classical Runge-Kutta 4 on (q, v)' = (v, force(q, v) / m).
 
@@ -298,13 +341,11 @@ def rk4_step(q, v, m, force, dt):
     return q_next, v_next
 
 
-INTEGRATORS = {"euler": euler_step, "semi_implicit": semi_implicit_step, "rk4": rk4_step}
-
-
 # The next rung, for systems whose force depends on the velocity (a damper): it needs one
 # more thing from the system, the force's derivative dforce_dv, so it is offered only there.
 
 
+@integrator("implicit", order=1, force_evaluations=1, chapter=False, needs="dforce_dv")
 def implicit_step(q, v, m, force, dt, dforce_dv):
     """Semi-implicit Euler with the velocity-dependent force taken at the NEW velocity.
 
@@ -323,14 +364,25 @@ def implicit_step(q, v, m, force, dt, dforce_dv):
     return q_next, v_next
 
 
+CHAPTER_INTEGRATORS = tuple(name for name, step in INTEGRATORS.items() if step.chapter)  # euler, semi_implicit, rk4
+
+
 def integrators_for(system: dict) -> dict:
-    """The chapter's three, plus implicit_step where the system declares dforce_dv."""
-    if "dforce_dv" not in system:
-        return dict(INTEGRATORS)
-    return {**INTEGRATORS, "implicit": functools.partial(implicit_step, dforce_dv=system["dforce_dv"])}
+    """{name: step(q, v, m, force, dt)} for every integrator that can run `system`."""
+    steps = {}
+    for name, step in INTEGRATORS.items():
+        if step.needs is None:
+            steps[name] = step
+        elif step.needs in system:
+            steps[name] = functools.partial(step, **{step.needs: system[step.needs]})
+    return steps
 
 
 # --- simulate and measure ---
+
+MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
+CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
+ROUNDOFF_DRIFT = 1e-12  # explicit Euler drifting less than this: every drift is round-off, nothing to judge
 
 
 def simulate(step_fn, system: dict, dt: float, steps: int, every: int = 1, progress=None):
@@ -397,6 +449,16 @@ def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, 
     return simulate(integrators_for(system)[integrator], system, dt, steps, every)
 
 
+def relative_energy_error(energies: np.ndarray) -> np.ndarray:
+    """(E - E0) / |E0| at every step, sign kept: the referee's one formula (over 1 where E0 = 0).
+
+    energies: (steps + 1,) for one run or (steps + 1, N) for a batch, row 0 the start.
+    """
+    e0 = energies[0]
+    with np.errstate(all="ignore"):  # finite energies can still be so far apart that the error overflows
+        return (energies - e0) / np.where(e0 != 0.0, np.abs(e0), 1.0)
+
+
 def energy_drift(energies: np.ndarray) -> dict:
     """Energy error relative to the start: the numbers the chapter is about.
 
@@ -404,22 +466,44 @@ def energy_drift(energies: np.ndarray) -> dict:
     rel_max: worst absolute excursion anywhere (bounded for semi-implicit, growing for Euler).
     If the energy overflowed or went NaN, the figures are None and diverged_at_step says when.
     """
-    e0 = float(energies[0])
-    scale = abs(e0) if e0 != 0.0 else 1.0
-    with np.errstate(all="ignore"):  # finite energies can still be so far apart that the error overflows
-        error = np.abs(energies - e0) / scale
+    relative = relative_energy_error(energies)
+    error = np.abs(relative)
     finite = np.isfinite(error)  # False where the energy is inf/NaN, or where its error is
+    e0 = float(energies[0])
     if not finite.all():
         return {"e0": e0, "e_final": None, "rel_final": None, "rel_max": None,
                 "diverged": True, "diverged_at_step": int(np.argmin(finite))}
     return {
         "e0": e0,
         "e_final": float(energies[-1]),
-        "rel_final": float((energies[-1] - e0) / scale),
+        "rel_final": float(relative[-1]),
         "rel_max": float(np.max(error)),
         "diverged": False,
         "diverged_at_step": None,
     }
+
+
+def judge_ordering(drifts: dict):
+    """The chapter's claim, |euler rel_final| > semi_implicit rel_max > rk4 rel_max, judged run by run.
+
+    drifts: {integrator: its drift} for one run (numbers; None where it diverged) or for an
+    ensemble (arrays of N; NaN where a member diverged). Returns, for each run, "holds", "fails",
+    or why it cannot be judged: "diverged", "roundoff" (every drift is round-off: too few steps or
+    too small a dt) or "left_band" (semi-implicit's error passed 100%: no band left to hold).
+    """
+    euler = np.abs(np.asarray(drifts["euler"]["rel_final"], dtype=float))
+    semi, rk4 = (np.asarray(drifts[name]["rel_max"], dtype=float) for name in ("semi_implicit", "rk4"))
+    diverged = np.any([drifts[name]["diverged"] for name in ("euler", "semi_implicit", "rk4")], axis=0)
+    with np.errstate(invalid="ignore"):
+        holds = (euler > semi) & (semi > rk4)
+        return np.select([diverged, euler < ROUNDOFF_DRIFT, semi > 1.0, holds],
+                         ["diverged", "roundoff", "left_band", "holds"], "fails")
+
+
+def ordering_is_judged(system_name: str, integrators) -> bool:
+    """The ordering is a claim about the chapter's three on a motion that comes back (orbit, spring)."""
+    build = SYSTEMS.get(system_name)
+    return build is not None and build.returns and set(CHAPTER_INTEGRATORS) <= set(integrators)
 
 
 def did_not_move(positions: np.ndarray, velocities: np.ndarray) -> bool:
@@ -427,45 +511,6 @@ def did_not_move(positions: np.ndarray, velocities: np.ndarray) -> bool:
     start = np.concatenate([positions[0].ravel(), velocities[0].ravel()])
     change = np.concatenate([(positions[-1] - positions[0]).ravel(), (velocities[-1] - velocities[0]).ravel()])
     return bool(np.all(np.abs(change) <= np.spacing(np.max(np.abs(start)))))
-
-
-def against_exact(system: dict, positions, velocities, energies, kept, dt: float) -> dict:
-    """A damped run (one body) against its closed-form solution: what the report prints for it.
-
-    err_max, err_final: the largest and the last distance |q - q_exact| over the kept states.
-    bounded: finite, and the second half of the run swings no wider than the first (largest |q|,
-    give or take BOUNDED_SLACK for where the samples fall on a steady oscillation).
-    energy_lost against damper_work: E0 - E(t) against the integral of b |v|^2 up to the same t,
-    by composite Simpson over the kept states (order 4, so it does not hide RK4's own order 4);
-    work_mismatch = (energy_lost - damper_work) / E0 shrinks like dt^order when dt halves.
-    """
-    if not np.isfinite(energies).all():  # the energy squares q and v: finite energy, finite everything
-        return {"err_max": None, "err_final": None, "bounded": False, "energy_lost": None,
-                "damper_work": None, "work_mismatch": None}
-    gap = positions - system["exact"](system["q0"], system["v0"], kept * dt)
-    distance = np.sqrt(dot3(gap, gap))
-    swing = np.sqrt(dot3(positions, positions))
-    half = len(swing) // 2
-    bounded = swing[half:].max() <= swing[:half + 1].max() * (1.0 + BOUNDED_SLACK)
-    spacing = kept[1:] - kept[:-1]
-    uniform = len(kept) - 1 if (spacing == spacing[0]).all() else len(kept) - 2  # thinned: drop the short tail
-    work = simpson(system["dissipation"](positions[: uniform + 1], velocities[: uniform + 1]), spacing[0] * dt)
-    lost = float(energies[0] - energies[kept[uniform]])
-    return {"err_max": float(distance.max()), "err_final": float(distance[-1]), "bounded": bool(bounded),
-            "energy_lost": lost, "damper_work": work, "work_mismatch": (lost - work) / float(energies[0])}
-
-
-def simpson(values, h: float) -> float:
-    """Composite Simpson's rule over equally spaced samples; an odd count of intervals ends with the 3/8 rule."""
-    f = [float(value) for value in values]  # math.fsum: exactly rounded, the same on every CPU
-    n = len(f) - 1
-    if n < 3:  # too few for Simpson: the trapezoid
-        return h * (0.5 * f[0] + math.fsum(f[1:n]) + 0.5 * f[n]) if n else 0.0
-    head = n if n % 2 == 0 else n - 3  # even part by Simpson 1-4-2-4-...-1, the rest by 3/8
-    total = h / 3.0 * (f[0] + 4.0 * math.fsum(f[1:head:2]) + 2.0 * math.fsum(f[2:head:2]) + f[head])
-    if head < n:
-        total += 3.0 * h / 8.0 * (f[n - 3] + 3.0 * f[n - 2] + 3.0 * f[n - 1] + f[n])
-    return total
 
 
 # --- report ---
@@ -486,34 +531,6 @@ def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: di
     return metrics
 
 
-def rounded(value):
-    """Every float in `value` (through dicts and lists) to 12 decimals, the chapter's format: RK4's drift
-    at the chapter's dt, ~5e-11, keeps two digits. From dt 0.004 down it is below 1e-12 and rounds to 0.0
-    in the file; the printed table keeps five significant digits of every drift."""
-    if isinstance(value, dict):
-        return {key: rounded(item) for key, item in value.items()}
-    if isinstance(value, list):
-        return [rounded(item) for item in value]
-    return round(value, 12) if isinstance(value, float) else value
-
-
-def metrics_text(metrics: dict) -> str:
-    """Strict JSON (no NaN or Infinity), keys sorted, so the same run gives the same bytes."""
-    return json.dumps(metrics, indent=2, sort_keys=True, allow_nan=False) + "\n"
-
-
-def cell(value: float, width: int, signed: bool = False) -> str:
-    """A table cell: 4 decimals where they fit, scientific notation where they would not."""
-    sign = "+" if signed else ""
-    text = f"{value:{sign}.4f}"
-    return f"{text:>{width}}" if len(text) < width - 1 else f"{value:>{sign}{width}.4e}"
-
-
-def sim_time(seconds: float) -> str:
-    """Simulated seconds as the reports print them: 20.00, or 1e-08 and 1e+12 where two decimals do not fit."""
-    return f"{seconds:.2f}" if 0.01 <= seconds < 1e9 else f"{seconds:.3g}"
-
-
 def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
     print(f"integrated {system_name} for {steps} steps of {dt} s -> {sim_time(steps * dt)} s of sim time")
     print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
@@ -524,40 +541,22 @@ def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
         else:
             print(f"{name:<14}{cell(d['e0'], 12)}{cell(d['e_final'], 14)}"
                   f"{d['rel_final']:>+14.4e}{d['rel_max']:>14.4e}")
-    if set(drifts) == set(INTEGRATORS) and system_name in ("orbit", "spring"):
-        # The headline, stated as an ordering so it holds for any seed.
-        diverged = [name for name, d in drifts.items() if d["diverged"]]
-        euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
-        if diverged:
-            verdict = f"cannot judge, {' and '.join(diverged)} diverged (try a smaller --dt)"
-        elif semi["rel_max"] > 1.0:  # an energy error past 100%: the bounded one has no band left to hold
-            verdict = f"cannot judge, semi_implicit left its band (rel_max {semi['rel_max']:.3g}; try a smaller --dt)"
-        elif abs(euler["rel_final"]) < ROUNDOFF_DRIFT:  # too few steps, or too small a dt, for any drift to show
-            verdict = "cannot judge, every drift is round-off (more --steps or a larger --dt)"
-        else:
-            ok = abs(euler["rel_final"]) > semi["rel_max"] > rk4["rel_max"]
-            verdict = "as expected" if ok else "UNEXPECTED: investigate"
-        print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: {verdict}")
+    if ordering_is_judged(system_name, drifts):  # the headline, stated as an ordering so it holds for any seed
+        print(f"energy drift ordering euler >> semi_implicit(bounded) > rk4: {verdict_line(drifts)}")
 
 
-def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solution: dict) -> None:
-    """The damped spring's table: distance from the closed form, boundedness, the energy audit."""
-    k, m, b = system["k"], system["m"], system["b"]
-    ratio = b / (2.0 * math.sqrt(k * m))
-    regime = "under-damped" if ratio < 1.0 else "critically damped" if ratio == 1.0 else "over-damped"
-    print(f"integrated {system['name']} (k {k:g}, m {m:g}, b {b:g}: {regime}) for {steps} steps of {dt} s"
-          f" -> {sim_time(steps * dt)} s of sim time")
-    print(f"per step: damping dt b/m = {dt * b / m:.4g}, stiffness dt sqrt(k/m) = {dt * math.sqrt(k / m):.4g}"
-          " (docs/damping.md maps where each integrator stays bounded)")
-    print(f"{'integrator':<14}{'max |q-exact|':>14}{'final':>12}{'bounded':>9}{'E lost':>10}"
-          f"{'damper work':>13}{'mismatch/E0':>13}")
-    for name, d in solution.items():
-        if drifts[name]["diverged"]:
-            print(f"{name:<14}  diverged: energy non-finite from step {drifts[name]['diverged_at_step']:,}")
-        else:
-            print(f"{name:<14}{d['err_max']:>14.4e}{d['err_final']:>12.4e}{'yes' if d['bounded'] else 'NO':>9}"
-                  f"{cell(d['energy_lost'], 10)}{cell(d['damper_work'], 13)}{d['work_mismatch']:>+13.4e}")
-    print("truth: the closed-form solution; damper work: the integral of b |v|^2, by composite Simpson")
+def verdict_line(drifts: dict) -> str:
+    """What the report says of judge_ordering()'s verdict on one run."""
+    verdict = str(judge_ordering(drifts))
+    if verdict == "diverged":
+        diverged = [name for name in CHAPTER_INTEGRATORS if drifts[name]["diverged"]]
+        return f"cannot judge, {' and '.join(diverged)} diverged (try a smaller --dt)"
+    if verdict == "roundoff":
+        return "cannot judge, every drift is round-off (more --steps or a larger --dt)"
+    if verdict == "left_band":
+        return (f"cannot judge, semi_implicit left its band (rel_max {drifts['semi_implicit']['rel_max']:.3g};"
+                " try a smaller --dt)")
+    return "as expected" if verdict == "holds" else "UNEXPECTED: investigate"
 
 
 # --- the run: flags and main ---
@@ -567,10 +566,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser = OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seed", type=int_in(0, None, "--seed"), default=0,
                         help="seeds the one jittered initial condition per system (default 0)")
-    parser.add_argument("--system", type=name_arg, choices=SYSTEMS + DAMPED_SYSTEMS, default="orbit",
+    parser.add_argument("--system", type=name_arg, choices=[*SYSTEMS, *DAMPED_SYSTEMS], default="orbit",
                         help="which system to integrate; damped_spring is the one that is not conservative"
                              " (default orbit)")
-    parser.add_argument("--integrator", type=name_arg, choices=["all", *INTEGRATORS, "implicit"], default="all",
+    parser.add_argument("--integrator", type=name_arg, choices=["all", *INTEGRATORS], default="all",
                         help="'all' runs the three-way comparison, which is the point; on damped_spring it"
                              " adds implicit, the damping taken at the new velocity (default all)")
     parser.add_argument("--damping", type=positive_finite("--damping"), default=None,
@@ -584,7 +583,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
     parser.add_argument("--ensemble", type=int_in(1, None, "--ensemble"), default=None, metavar="N",
                         help="also run seeds --seed .. --seed+N-1 together and report the spread, N up to what"
-                             f" fits in {ENSEMBLE_MEMORY / 1e9:g} GB (about 44,000 orbits of 2,000 steps; default off)")
+                             " fits in 1 GB (about 44,000 orbits of 2,000 steps; default off)")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
     parser.add_argument("--out", type=folder_arg, default=Path("outputs/ch3.3-engine"),
@@ -599,9 +598,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     if args.system in DAMPED_SYSTEMS and args.ensemble:
         parser.error("argument --ensemble: ensembles compare energy drift on the conservative systems"
                      f" ({', '.join(SYSTEMS)})")
-    if args.system not in DAMPED_SYSTEMS and args.integrator == "implicit":
-        parser.error(f"argument --integrator: implicit needs a velocity-dependent force, so --system"
-                     f" {' or '.join(DAMPED_SYSTEMS)}")
+    needs = getattr(INTEGRATORS.get(args.integrator), "needs", None)  # implicit needs the force's dforce_dv
+    offered = [name for name in [*SYSTEMS, *DAMPED_SYSTEMS] if needs in build_system(name, np.random.default_rng(0))]
+    if needs and args.system not in offered:
+        parser.error(f"argument --integrator: {args.integrator} needs a velocity-dependent force ({needs}), so"
+                     f" --system {' or '.join(offered)}")
     if args.smoke and args.steps is not None:
         parser.error(f"argument --steps: --smoke always runs {SMOKE_STEPS} steps (so two smoke runs can be diffed);"
                      " drop one of the two")
@@ -610,31 +611,16 @@ def parse_args(argv=None) -> argparse.Namespace:
         parser.error(f"argument --out: {problem}")
     args.steps = args.steps or DEFAULT_STEPS
     steps = SMOKE_STEPS if args.smoke else args.steps
-    if args.ensemble and ensemble_bytes(steps, args.ensemble) > ENSEMBLE_MEMORY:
-        parser.error(f"argument --ensemble: {args.ensemble:,} members x {steps:,} steps needs about"
-                     f" {ensemble_bytes(steps, args.ensemble) / 1e9:.1f} GB, over the {ENSEMBLE_MEMORY / 1e9:g} GB"
-                     " this run may use: fewer members or fewer --steps")
+    if args.ensemble:
+        from engine_ensembles import ensemble_problem  # the extension loads only when its flag asks
+
+        problem = ensemble_problem(steps, args.ensemble)
+        if problem:
+            parser.error(f"argument --ensemble: {problem}")
     problem = args.rerun and rerun_problem()
     if problem:
         parser.error(problem)
     return args
-
-
-def rerun_problem() -> str | None:
-    """Why the recording cannot be made (rerun-sdk missing or broken), or None. Imports it: needed anyway."""
-    try:
-        import rerun  # noqa: F401
-    except ImportError as error:
-        if error.name == "rerun":
-            return "the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun"
-        why = f"{type(error).__name__}: {error}".splitlines()[0]
-    except Exception as error:  # a broken install fails in many ways
-        why = f"{type(error).__name__}: {error}".splitlines()[0]
-    else:
-        return None
-    if "failed to map segment" in why or "Cannot allocate memory" in why:  # a memory limit (ulimit -v)
-        return f"not enough memory to load rerun-sdk ({why}); raise the memory limit or pass --no-rerun"
-    return f"rerun-sdk is installed but does not import ({why}); reinstall it (`pip install -e .`) or pass --no-rerun"
 
 
 @one_line_failures("engine.py", memory_hint="fewer --steps need less")  # Ctrl-C 130, SIGTERM 143, OS errors: one line
@@ -643,64 +629,75 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     banner("ch3.3-engine", device=args.device)
     steps = SMOKE_STEPS if args.smoke else args.steps
-    damping = DAMPING if args.damping is None else args.damping
-    # PCG64 seeded per member is the only randomness; member 0 of an ensemble is the single run
-    seeds = range(args.seed, args.seed + (args.ensemble or 1))
-    if args.ensemble:
-        system = build_ensemble(args.system, seeds)
-    else:
-        system = build_system(args.system, np.random.default_rng(args.seed), damping)
+    if args.ensemble:  # seeds --seed .. --seed+N-1 stepped together: the extension keeps and reports them
+        import engine_ensembles
+
+        return engine_ensembles.main(args, steps, started)
+    system = build_system(args.system, np.random.default_rng(args.seed), args.damping)
     integrators = integrators_for(system)
     names = list(integrators) if args.integrator == "all" else [args.integrator]
     every = math.ceil((steps + 1) / MAX_POINTS_PER_SERIES)  # states kept for the recording; energy: every step
-    if args.ensemble:
-        every = max(every, ensemble_every(steps, args.ensemble))
-    # a member's step in a batch costs about a hundredth of a single run's, hence the 100
-    show_progress = not args.smoke and steps * len(names) * len(seeds) >= PROGRESS_FROM * (100 if args.ensemble else 1)
-    metrics_path, recording_path = args.out / METRICS_FILE, args.out / RECORDING_FILE
-    runs, drifts, ensemble, solution = {}, {}, {}, {}
+    show_progress = not args.smoke and steps * len(names) >= PROGRESS_FROM
+    runs, drifts = {}, {}
     for name in names:
         progress = progress_printer(name, steps) if show_progress else None
-        positions, velocities, energies = simulate(integrators[name], system, args.dt, steps, every, progress)
-        if args.ensemble:
-            ensemble[name] = summarize_ensemble(energies, positions, kept_steps(steps, every), args.rerun)
-            positions, velocities, energies = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
-        runs[name] = positions, velocities, energies
-        drifts[name] = energy_drift(energies)
-        drifts[name]["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
-        if "dissipation" in system:  # a damped system: the closed-form solution is its referee
-            solution[name] = against_exact(system, positions, velocities, energies, kept_steps(steps, every), args.dt)
-    block = ensemble_block(args.system, seeds, ensemble) if args.ensemble else None
-    metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts, damping if solution else None,
-                            solution or None, block)
-    metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
-    files, note = {}, None
-    if args.rerun:
-        from engine_recording import record  # Rerun loads only when a recording is asked for
+        runs[name] = simulate(integrators[name], system, args.dt, steps, every, progress)
+        drifts[name] = drift_with_final_position(runs[name])
+    solution = None
+    if args.system in DAMPED_SYSTEMS:  # a damped system: the closed-form solution is its referee
+        from engine_damping import against_exact, print_damped_report
 
-        files[RECORDING_FILE], note = record(system, runs, kept_steps(steps, every), args.dt, metrics["run_id"],
-                                             ensemble)
-    files[METRICS_FILE] = metrics_text(metrics)
-    write_run(args.out, files)  # all on disk before any replaces its old file; metrics.json last
+        solution = {name: against_exact(system, *runs[name], kept_steps(steps, every), args.dt) for name in names}
+    metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts, system.get("b"), solution)
+    write_outputs(args, system, runs, kept_steps(steps, every), metrics)
     if solution:
         print_damped_report(system, args.dt, steps, drifts, solution)
     else:
         print_report(args.system, args.dt, steps, drifts)
-    if args.ensemble:
-        print_ensemble_report(args.system, seeds, block)
-    if all(did_not_move(positions, velocities) for positions, velocities, _ in runs.values()):
-        print(f"engine.py: warning: --dt {args.dt} is too small to move the state: after {steps:,} steps no position "
-              "or velocity changed by even one rounding step, so the drifts above measure nothing", file=sys.stderr)
-    print(f"metrics: {metrics_path}")
-    if args.rerun:
-        print(f"recording: {recording_path} (open it with: rerun {recording_path})")
-        if note:
-            print(note)
-    elif recording_path.exists():
-        print(f"note: {recording_path} is from an earlier run (this one wrote no recording)")
-    wall_clock(started)
+    finish(args, runs, steps, started)
     return 0
 
 
+PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
+
+
+def drift_with_final_position(run: tuple) -> dict:
+    """energy_drift() of one run, plus where its body ended (None for a coordinate that blew up)."""
+    positions, _, energies = run
+    drift = energy_drift(energies)
+    drift["final_pos"] = [round(x, 6) if math.isfinite(x) else None for x in positions[-1].tolist()]
+    return drift
+
+
+def write_outputs(args, system: dict, runs: dict, kept, metrics: dict, ensemble: dict | None = None) -> None:
+    """metrics.json and, unless --no-rerun, engine.rrd, written together (metrics.json last)."""
+    metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
+    files = {}
+    args.recording_note = None
+    if args.rerun:
+        from engine_recording import record  # Rerun loads only when a recording is asked for
+
+        files[RECORDING_FILE], args.recording_note = record(system, runs, kept, args.dt, metrics["run_id"], ensemble)
+    files[METRICS_FILE] = metrics_text(metrics)
+    write_run(args.out, files)  # all on disk before any replaces its old file; metrics.json last
+
+
+def finish(args, runs: dict, steps: int, started: float) -> None:
+    """The lines after the report: a dt too small to move anything, where the files are, the wall clock."""
+    if all(did_not_move(positions, velocities) for positions, velocities, _ in runs.values()):
+        print(f"engine.py: warning: --dt {args.dt} is too small to move the state: after {steps:,} steps no position "
+              "or velocity changed by even one rounding step, so the drifts above measure nothing", file=sys.stderr)
+    metrics_path, recording_path = args.out / METRICS_FILE, args.out / RECORDING_FILE
+    print(f"metrics: {metrics_path}")
+    if args.rerun:
+        print(f"recording: {recording_path} (open it with: rerun {recording_path})")
+        if args.recording_note:
+            print(args.recording_note)
+    elif recording_path.exists():
+        print(f"note: {recording_path} is from an earlier run (this one wrote no recording)")
+    wall_clock(started)
+
+
 if __name__ == "__main__":
+    sys.modules.setdefault("engine", sys.modules["__main__"])  # the extensions' `import engine` is this run
     sys.exit(main())

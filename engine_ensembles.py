@@ -4,16 +4,18 @@ engine.build_ensemble() stacks N starting states into (N, 3) arrays and engine.s
 together: the same arithmetic on every row, so each member is bit for bit its own single run, at a
 fraction of the cost per member. This module keeps what the report needs: every member's energy at
 every step, but positions only every few steps, and summarises them.
+
+A leaf: it imports engine, and engine.main() loads it only when --ensemble asks.
 """
 
 import math
 
 import numpy as np
 
-CHAPTER_INTEGRATORS = ("euler", "semi_implicit", "rk4")  # the ordering the verdict checks is theirs
+import engine
+
 ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
 ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
-ROUNDOFF_DRIFT = 1e-12  # explicit Euler drifting less than this: every drift is round-off, no ordering to judge
 SHOWN_MEMBERS = 20  # member paths an ensemble's recording draws: enough to see the spread, few enough to open
 
 
@@ -28,38 +30,36 @@ def ensemble_bytes(steps: int, members: int) -> int:
     return 9 * (steps + 1) * members + 3 * 8 * ENSEMBLE_KEPT_VALUES
 
 
+def ensemble_problem(steps: int, members: int) -> str | None:
+    """Why an ensemble of `members` x `steps` cannot run (it would not fit in ENSEMBLE_MEMORY), or None."""
+    needed = ensemble_bytes(steps, members)
+    if needed <= ENSEMBLE_MEMORY:
+        return None
+    return (f"{members:,} members x {steps:,} steps needs about {needed / 1e9:.1f} GB, over the"
+            f" {ENSEMBLE_MEMORY / 1e9:g} GB this run may use: fewer members or fewer --steps")
+
+
 def ensemble_drift(energies: np.ndarray) -> dict:
-    """energy_drift() for every member of an ensemble at once; energies is (steps + 1, N).
+    """engine.energy_drift() for every member of an ensemble at once; energies is (steps + 1, N).
 
     Returns arrays of N: rel_final, rel_max (NaN where the member diverged) and diverged; each
     member's figures are the bits energy_drift() gives for that member alone."""
-    e0 = energies[0]
-    scale = np.where(e0 != 0.0, np.abs(e0), 1.0)
-    with np.errstate(all="ignore"):
-        # the worst excursion is above the highest energy or below the lowest: no (steps, N) temporaries,
-        # and the same bits as max |E - E0| because subtracting E0 keeps the order
-        worst = np.maximum(np.max(energies, axis=0) - e0, e0 - np.min(energies, axis=0))
-        diverged = ~np.isfinite(worst / scale)  # a non-finite energy, or finite ones whose error overflows
-        rel_final = np.where(diverged, np.nan, (energies[-1] - e0) / scale)
-        rel_max = np.where(diverged, np.nan, worst / scale)
-    return {"rel_final": rel_final, "rel_max": rel_max, "diverged": diverged}
+    # The worst excursion is above the highest energy or below the lowest: no (steps, N) temporaries, and
+    # the same bits as max |E - E0| / |E0| because subtracting E0 and dividing by |E0| keep the order.
+    start, highest, lowest, final = engine.relative_energy_error(
+        np.stack([energies[0], np.max(energies, axis=0), np.min(energies, axis=0), energies[-1]]))
+    worst = np.maximum(highest, -lowest)
+    diverged = ~np.isfinite(worst)  # a non-finite energy, or finite ones whose error overflows
+    return {"rel_final": np.where(diverged, np.nan, final), "rel_max": np.where(diverged, np.nan, worst),
+            "diverged": diverged}
 
 
 def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
     """(len(kept), 3): min, median and max over the members of |E - E0| / |E0| at the kept steps."""
-    e0 = energies[0]
-    with np.errstate(all="ignore"):
-        relative = np.abs(energies[kept] - e0) / np.where(e0 != 0.0, np.abs(e0), 1.0)
-        relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
-        # (a median of two errors near the float limit overflows to inf, which the plot leaves out)
+    relative = np.abs(engine.relative_energy_error(energies[kept]))
+    relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
+    with np.errstate(all="ignore"):  # a median of two errors near the float limit overflows to inf (not drawn)
         return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
-
-
-def ordering_holds(drifts: dict) -> np.ndarray:
-    """Per member: |euler rel_final| > semi_implicit rel_max > rk4 rel_max (False where any diverged)."""
-    euler, semi, rk4 = drifts["euler"], drifts["semi_implicit"], drifts["rk4"]
-    with np.errstate(invalid="ignore"):
-        return (np.abs(euler["rel_final"]) > semi["rel_max"]) & (semi["rel_max"] > rk4["rel_max"])
 
 
 def spread(values: np.ndarray) -> dict | None:
@@ -90,18 +90,13 @@ def ensemble_block(system_name: str, seeds: range, ensemble: dict) -> dict:
     block = {"seeds": [seeds[0], seeds[-1]], "members": len(seeds), "drift": {
         name: {"rel_final": spread(s["rel_final"]), "rel_max": spread(s["rel_max"]),
                "diverged": int(np.count_nonzero(s["diverged"]))} for name, s in ensemble.items()}}
-    if set(ensemble) == set(CHAPTER_INTEGRATORS) and system_name in ("orbit", "spring"):
-        holds = ordering_holds(ensemble)
-        diverged = np.any([s["diverged"] for s in ensemble.values()], axis=0)  # such a member cannot be judged
-        with np.errstate(invalid="ignore"):  # nor one whose drifts are all round-off (a diverged one's are NaN),
-            roundoff = ~diverged & (np.abs(ensemble["euler"]["rel_final"]) < ROUNDOFF_DRIFT)
-            unbanded = ~diverged & (ensemble["semi_implicit"]["rel_max"] > 1.0)  # nor one past 100%: no band left
-        judged = ~diverged & ~roundoff & ~unbanded
-        block["ordering_holds"] = int(np.count_nonzero(holds & judged))
-        block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(~holds & judged).tolist()]
-        block["ordering_not_judged"] = int(np.count_nonzero(~judged))
-        block["ordering_roundoff_only"] = int(np.count_nonzero(roundoff))
-        block["ordering_left_band"] = int(np.count_nonzero(unbanded & ~roundoff))
+    if engine.ordering_is_judged(system_name, ensemble):
+        verdicts = engine.judge_ordering(ensemble)  # one verdict per member, as a single run gets
+        block["ordering_holds"] = int(np.count_nonzero(verdicts == "holds"))
+        block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(verdicts == "fails").tolist()]
+        block["ordering_not_judged"] = int(np.count_nonzero(~np.isin(verdicts, ["holds", "fails"])))
+        block["ordering_roundoff_only"] = int(np.count_nonzero(verdicts == "roundoff"))
+        block["ordering_left_band"] = int(np.count_nonzero(verdicts == "left_band"))
     return block
 
 
@@ -136,3 +131,33 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
         if fails:
             more = f" and {len(fails) - 10:,} more" if len(fails) > 10 else ""
             print(f"  it fails for seed {', '.join(map(str, fails[:10]))}{more}: rerun one with --seed to look")
+
+
+def main(args, steps: int, started: float) -> int:
+    """engine.main() for --ensemble: seeds --seed .. --seed+N-1 stepped together, reported, written.
+
+    Member 0 is the single run with --seed, bit for bit: its drifts fill metrics.json's "drift" and
+    the table above the ensemble's; the members' spread fills the "ensemble" block.
+    """
+    seeds = range(args.seed, args.seed + args.ensemble)  # PCG64 seeded per member is the only randomness
+    system = engine.build_ensemble(args.system, seeds)
+    integrators = engine.integrators_for(system)
+    names = list(integrators) if args.integrator == "all" else [args.integrator]
+    every = max(math.ceil((steps + 1) / engine.MAX_POINTS_PER_SERIES), ensemble_every(steps, len(seeds)))
+    kept = engine.kept_steps(steps, every)
+    # a member's step in a batch costs about a hundredth of a single run's, hence the 100
+    show_progress = not args.smoke and steps * len(names) * len(seeds) >= engine.PROGRESS_FROM * 100
+    runs, drifts, ensemble = {}, {}, {}
+    for name in names:
+        progress = engine.progress_printer(name, steps) if show_progress else None
+        positions, velocities, energies = engine.simulate(integrators[name], system, args.dt, steps, every, progress)
+        ensemble[name] = summarize_ensemble(energies, positions, kept, args.rerun)
+        runs[name] = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
+        drifts[name] = engine.drift_with_final_position(runs[name])
+    block = ensemble_block(args.system, seeds, ensemble)
+    metrics = engine.build_metrics(args.system, args.dt, steps, args.seed, drifts, ensemble=block)
+    engine.write_outputs(args, system, runs, kept, metrics, ensemble)
+    engine.print_report(args.system, args.dt, steps, drifts)
+    print_ensemble_report(args.system, seeds, block)
+    engine.finish(args, runs, steps, started)
+    return 0

@@ -38,7 +38,7 @@ def record(system: dict, runs: dict, kept: np.ndarray, dt: float, run_id: str,
     recording = rr.RecordingStream(APPLICATION_ID, recording_id=run_id)
     in_memory = recording.memory_recording()
     try:
-        views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in RECORDED_VIEWS[system["name"]]]
+        views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in views_for(system)]
         below = [log_view(rr, rrb, recording, ensemble, kept) for log_view in ENSEMBLE_VIEWS] if ensemble else []
         recording.send_blueprint(layout(rrb, views, below, kept), make_active=False, make_default=True)
     finally:
@@ -334,4 +334,14 @@ RECORDED_VIEWS = {  # per system, the views its lesson needs; the first one open
     "freefall": (log_energy_change, log_height),
     "damped_spring": (log_phase_plane, log_position_error),  # energy drains by design: the exact motion referees
 }
+
+
+def views_for(system: dict) -> tuple:
+    """The system's own views, or for a system that has none in the table: its energy error, and its position
+    error against the exact motion where it has one."""
+    if system["name"] in RECORDED_VIEWS:
+        return RECORDED_VIEWS[system["name"]]
+    return (log_energy_error, log_position_error) if system.get("exact") else (log_energy_error,)
+
+
 ENSEMBLE_VIEWS = (log_member_paths, log_error_spread)  # an --ensemble run adds these in a row below

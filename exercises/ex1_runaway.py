@@ -7,12 +7,13 @@ The evidence is the chapter's orbit (seed 0, dt 0.01) run 1x, 2x, 4x and 8x as l
 chapter's 2000 steps. A runaway error grows with the horizon; a bounded one does not.
 """
 
-import argparse
 import sys
-from pathlib import Path
 
-if __package__ in (None, ""):  # run as a file (python exercises/ex1_runaway.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from curriculum.common.exercise import start
+
+start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
+
+import argparse
 
 import numpy as np
 
@@ -21,21 +22,20 @@ from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, verdict
 
-CHOICES = list(engine.INTEGRATORS)
+CHOICES = list(engine.CHAPTER_INTEGRATORS)
 HORIZONS = [1, 2, 4, 8]  # multiples of the chapter's run
 CHAPTER_STEPS, DT = 2000, 0.01
-
 
 def measure(seed: int = 0) -> dict:
     """{integrator: [(rel_final, rel_max) at each horizon]}. One run of 8x; shorter horizons are its prefixes."""
     system = engine.build_system("orbit", np.random.default_rng(seed))
     table = {}
-    for name, step in engine.INTEGRATORS.items():
+    for name in engine.CHAPTER_INTEGRATORS:
+        step = engine.INTEGRATORS[name]
         _, _, energies = engine.simulate(step, system, DT, CHAPTER_STEPS * HORIZONS[-1])
         drifts = [engine.energy_drift(energies[: CHAPTER_STEPS * h + 1]) for h in HORIZONS]
         table[name] = [(d["rel_final"], d["rel_max"]) for d in drifts]
     return table
-
 
 def runaway(table: dict) -> str:
     """The one whose energy climbs: above E0 at the end, higher by 10% or more every time the run
@@ -46,7 +46,6 @@ def runaway(table: dict) -> str:
         if climbing and all(final == worst for final, worst in rows):
             return name
     raise AssertionError("no integrator ran away: the physics has changed")
-
 
 @one_line_failures("exercises.ex1_runaway")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
@@ -78,7 +77,6 @@ def main(argv=None) -> int:
         " Exercise 4 asks when that creep overtakes the semi-implicit band.",
     )
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

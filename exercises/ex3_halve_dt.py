@@ -10,13 +10,14 @@ for the orbit, the cosine for the spring), and the energy's worst relative excur
 shows by what factor each error shrank from one rung to the next.
 """
 
+import sys
+
+from curriculum.common.exercise import start
+
+start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
+
 import argparse
 import math
-import sys
-from pathlib import Path
-
-if __package__ in (None, ""):  # run as a file (python exercises/ex3_halve_dt.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
@@ -24,7 +25,6 @@ import engine
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import PerName, ask, explain
-from exercises.support.exact import kepler_position, spring_position
 
 SIM_SECONDS = 5.0  # not a whole number of periods: at one, some error terms cancel and the ladder zigzags
 # Each ladder starts where its method's error is already small and still far above rounding,
@@ -32,41 +32,37 @@ SIM_SECONDS = 5.0  # not a whole number of periods: at one, some error terms can
 LADDERS = {"euler": [0.01 / 2**k for k in range(6)], "semi_implicit": [0.01 / 2**k for k in range(6)],
            "rk4": [0.1 / 2**k for k in range(6)]}
 FACTORS = [1, 2, 4, 8, 16, 32]
-EXACT = {"orbit": kepler_position, "spring": spring_position}
+SYSTEMS = ["orbit", "spring"]  # the two whose motion comes back, with their exact motions in engine.py
 # Below these an error is mostly rounding (about 1e-16 per step, times thousands of steps):
 # a factor whose finer rung is under the floor would measure noise, so it is not shown.
 FLOOR = {"position": 1e-12, "energy": 1e-14}
-
 
 def measure(system_name: str = "orbit", seed: int = 0) -> dict:
     """{measure: {integrator: [error at each rung of its ladder]}} for measure in ("position", "energy")."""
     system = engine.build_system(system_name, np.random.default_rng(seed))
     errors = {"position": {}, "energy": {}}
-    for name, step in engine.INTEGRATORS.items():
+    for name in engine.CHAPTER_INTEGRATORS:
+        step = engine.INTEGRATORS[name]
         errors["position"][name], errors["energy"][name] = [], []
         for dt in LADDERS[name]:
             steps = round(SIM_SECONDS / dt)
             trajectory, _, energies = engine.simulate(step, system, dt, steps)
-            exact_final = EXACT[system_name](system, steps * dt)
+            exact_final = system["exact"](system["q0"], system["v0"], [steps * dt])[0]
             errors["position"][name].append(float(np.max(np.abs(trajectory[-1] - exact_final))))
             errors["energy"][name].append(engine.energy_drift(energies)["rel_max"])
     return errors
 
-
 def shrink_factors(rung_errors: list, floor: float) -> list:
     """error(dt) / error(dt / 2) down the ladder; None where the finer error is below the floor."""
     return [coarse / fine if fine > floor else None for coarse, fine in zip(rung_errors, rung_errors[1:], strict=False)]
-
 
 def settled(factors: list) -> float | None:
     """What the ladder converges to: the last factor above the round-off floor."""
     usable = [f for f in factors if f is not None]
     return usable[-1] if usable else None
 
-
 def nearest_power_of_two(factor: float) -> int:
     return 2 ** round(math.log2(factor))
-
 
 def print_ladder(errors: dict) -> None:
     for measure_name, by_integrator in errors.items():
@@ -78,7 +74,6 @@ def print_ladder(errors: dict) -> None:
             span = f"dt {ladder[0]:g} -> {ladder[-1]:g}:"
             print(f"  {name:<15}{span:<24}"
                   + "".join(f"{f:>8.2f}" if f else f"{'(round-off)':>12}" for f in cells))
-
 
 def story(system_name: str, errors: dict) -> list:
     """The explanation, from this run's numbers: every row of both tables, for this system."""
@@ -121,15 +116,14 @@ def story(system_name: str, errors: dict) -> list:
                  " and at which dt, before you quote a factor.")
     return lines
 
-
 @one_line_failures("exercises.ex3_halve_dt")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex3_halve_dt", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--system", choices=sorted(EXACT), default="orbit", help="which system (default orbit)")
+    parser.add_argument("--system", choices=SYSTEMS, default="orbit", help="which system (default orbit)")
     prediction = ask(parser,
                      f"Halve dt, keeping {SIM_SECONDS:g} s of simulated time. By what factor does each integrator's"
-                     " final position error shrink?", PerName(engine.INTEGRATORS, FACTORS), argv)
+                     " final position error shrink?", PerName(engine.CHAPTER_INTEGRATORS, FACTORS), argv)
     system_name = parser.parsed.system
 
     errors = measure(system_name)
@@ -148,7 +142,6 @@ def main(argv=None) -> int:
     print(f"{right} of 3.")
     explain(*story(system_name, errors))
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -10,13 +10,14 @@ Euler stays inside; the crossovers at three timesteps show how it scales, and tw
 estimates carry it to the chapter's dt = 0.01.
 """
 
+import sys
+
+from curriculum.common.exercise import start
+
+start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
+
 import argparse
 import math
-import sys
-from pathlib import Path
-
-if __package__ in (None, ""):  # run as a file (python exercises/ex4_long_run.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
@@ -24,7 +25,6 @@ import engine
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import Number, ask, explain, verdict
-from exercises.support.exact import orbit_period
 
 # Coarse on purpose, so the crossovers come within tens of thousands of steps. The last member
 # is the chapter's dt: it rides along in the same batch, for the direct estimate at dt 0.01.
@@ -34,11 +34,9 @@ CHOICES = [10, 100, 1_000, 10_000, 100_000]  # orbits
 CHUNK = 4_000  # steps per simulate() call: short enough to stop soon after the last crossover
 MAX_STEPS = 400_000
 
-
 def batch(system: dict, n: int) -> dict:
     """n copies of one body, to step at n different timesteps at once (dt is then an (n, 1) array)."""
     return {**system, "q0": np.tile(system["q0"], (n, 1)), "v0": np.tile(system["v0"], (n, 1))}
-
 
 def semi_implicit_bands(system: dict, dts: list, period: float) -> np.ndarray:
     """Worst relative energy excursion of semi-implicit Euler at each dt, over at least 3 orbits.
@@ -48,7 +46,6 @@ def semi_implicit_bands(system: dict, dts: list, period: float) -> np.ndarray:
     _, _, energies = engine.simulate(engine.semi_implicit_step, batch(system, len(dts)),
                                      np.array(dts)[:, None], steps)
     return np.abs(energies - energies[0]).max(axis=0) / np.abs(energies[0])
-
 
 def rk4_crossovers(system: dict, dts: list, bands: np.ndarray, progress=None) -> tuple[np.ndarray, np.ndarray]:
     """First step at which RK4's |E - E0| / |E0| exceeds the band, at each dt (-1 if not within MAX_STEPS),
@@ -75,12 +72,10 @@ def rk4_crossovers(system: dict, dts: list, bands: np.ndarray, progress=None) ->
             progress(done, crossed)
     return crossed, np.concatenate(chapter_history)
 
-
 def show_progress(done: int, crossed: np.ndarray) -> None:
     waiting = [f"{dt:g}" for dt, step in zip(TIMESTEPS, crossed, strict=False) if step < 0]
     line = f"  {done:,} RK4 steps; still inside the band at dt {', '.join(waiting)}" if waiting else ""
     print(f"\r{line:<72}", end="" if waiting else "\r", file=sys.stderr, flush=True)
-
 
 @one_line_failures("exercises.ex4_long_run")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
@@ -92,7 +87,7 @@ def main(argv=None) -> int:
                 Number(CHOICES, unit="orbit"), argv)
 
     system = engine.build_system("orbit", np.random.default_rng(0))
-    period = orbit_period(system)
+    period = engine.kepler_period(system["q0"], system["v0"], system["mu"])
     dts = [*TIMESTEPS, CHAPTER_DT]
     bands = semi_implicit_bands(system, dts, period)
     progress = show_progress if sys.stderr.isatty() else None  # redrawn in place: for a terminal, not a log
@@ -154,7 +149,6 @@ def main(argv=None) -> int:
         " also weigh cost: one force evaluation per step instead of four.",
     )
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -9,14 +9,16 @@ of dt 0.01 under each integrator. The program measures the blob's area after eve
 writes a recording of the blob moving (outputs/ch3.3-engine/ex5_blob.rrd; --no-rerun skips it).
 """
 
+import sys
+
+from curriculum.common.exercise import start
+
+start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
+
 import argparse
 import math
 import re
-import sys
 from pathlib import Path
-
-if __package__ in (None, ""):  # run as a file (python exercises/ex5_phase_blob.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
@@ -33,9 +35,7 @@ CENTRE, RADIUS, EDGE_POINTS = (1.0, 0.0), 0.25, 360  # the chapter's spring star
 SAME = 1e-12  # |area ratio - 1| below this is "stays": round-off in 2000 steps is ~100x smaller
 RECORD_EVERY, RECORD_POINTS = 5, 120  # the recording's frames and edge points: enough to see, small to open
 
-
 # --- the blob and its area ---
-
 
 def spring():
     """(m, force, k, omega): the chapter's spring; its stiffness read off its own force law."""
@@ -44,12 +44,10 @@ def spring():
     k = -force(np.array([1.0, 0.0, 0.0]), np.zeros(3))[0]  # force per metre of stretch
     return m, force, k, math.sqrt(k / m)
 
-
 def energy(x, v):
     """The spring's true energy along x: kinetic + spring."""
     m, _, k, _ = spring()
     return 0.5 * m * v * v + 0.5 * k * x * x
-
 
 def blob_edge(points: int = EDGE_POINTS):
     """(q, v), each (points, 3): the disc's edge in order round the circle, all motion along x."""
@@ -59,7 +57,6 @@ def blob_edge(points: int = EDGE_POINTS):
     v[:, 0] = CENTRE[1] + RADIUS * np.sin(angle)
     return q, v
 
-
 def shoelace_areas(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Area inside each closed polygon (x[k, i], y[k, i]) over i, one per row k, by the shoelace formula.
 
@@ -67,7 +64,6 @@ def shoelace_areas(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     rounding already in the points themselves: that is what lets a change of 1e-9 show."""
     terms = x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y
     return np.array([0.5 * abs(math.fsum(row)) for row in terms.tolist()])
-
 
 def run_blob(name: str, dt: float, steps: int):
     """Step the whole edge at once. Returns areas (steps+1,) and the edge's positions x and
@@ -82,7 +78,6 @@ def run_blob(name: str, dt: float, steps: int):
             x[i], vx[i] = q[:, 0], v[:, 0]
     return shoelace_areas(x, vx), x, vx
 
-
 def one_step_determinant(name: str, h: float) -> tuple[float, float]:
     """(det - 1, trace) of one step's 2x2 matrix on the harmonic oscillator, h = omega * dt.
 
@@ -96,17 +91,14 @@ def one_step_determinant(name: str, h: float) -> tuple[float, float]:
     h2 = h * h
     return -h2 * h2 * h2 / 72.0 + h2 * h2 * h2 * h2 / 576.0, 2.0 - h2 + h2 * h2 / 12.0
 
-
 def closed_form_ratio(name: str, h: float, steps: int) -> float:
     """det ** steps - 1, computed as expm1(steps * log1p(det - 1)) to keep the small ones' digits."""
     return math.expm1(steps * math.log1p(one_step_determinant(name, h)[0]))
-
 
 def what_the_area_does(ratio_minus_one: float) -> str:
     if ratio_minus_one > SAME:
         return "grows"
     return "shrinks" if ratio_minus_one < -SAME else "stays"
-
 
 def measure(dt: float, steps: int) -> dict:
     """{integrator: {"areas", "ratios", "measured", "closed_form", "worst_gap", "x", "v"}}: ratios are
@@ -114,7 +106,7 @@ def measure(dt: float, steps: int) -> dict:
     between the measured area and the closed form's, over every step."""
     h = spring()[3] * dt
     table = {}
-    for name in engine.INTEGRATORS:
+    for name in engine.CHAPTER_INTEGRATORS:
         areas, x, vx = run_blob(name, dt, steps)
         with np.errstate(all="ignore"):
             ratios = areas / areas[0] - 1.0
@@ -125,7 +117,6 @@ def measure(dt: float, steps: int) -> dict:
                        "x": x, "v": vx}
     return table
 
-
 def modified_energy_drift(x: np.ndarray, v: np.ndarray, dt: float) -> tuple[float, float]:
     """For semi-implicit Euler on the spring: (worst relative change of the true energy, of the
     nearby quadratic E~ = E - k dt x v / 2), over every point and step. E~ is what the step keeps."""
@@ -134,9 +125,7 @@ def modified_energy_drift(x: np.ndarray, v: np.ndarray, dt: float) -> tuple[floa
     nearby = true - 0.5 * k * dt * x * v
     return (float(np.max(np.abs(true / true[0] - 1.0))), float(np.max(np.abs(nearby / nearby[0] - 1.0))))
 
-
 # --- the recording ---
-
 
 def record(path: Path, table: dict) -> None:
     """The blob's edge in the (x, v_x) plane on the `step` timeline, one colour per integrator,
@@ -176,9 +165,7 @@ def record(path: Path, table: dict) -> None:
         data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
     write_atomic(path, data)
 
-
 # --- the exercise ---
-
 
 class EachOf:
     """One word per name: 'euler=grows, semi-implicit: stays, RK4 = shrinks' (any spacing, order, case).
@@ -211,7 +198,6 @@ class EachOf:
             raise ValueError(f"no answer for {', '.join(missing)}: expected {self.forms}")
         return prediction
 
-
 def rrd_problem(path: Path) -> str | None:
     """Why the recording cannot go to `path`, or None: it must be an .rrd file in a folder we can write,
     so that a slip such as `--rrd README.md` never overwrites something else."""
@@ -220,7 +206,6 @@ def rrd_problem(path: Path) -> str | None:
     if path.exists() and not path.is_file():
         return f"{path} is not a file"
     return folder_problem(path.parent, [path.name])
-
 
 @one_line_failures("exercises.ex5_phase_blob")
 def main(argv=None) -> int:
@@ -231,7 +216,7 @@ def main(argv=None) -> int:
                         help="where the recording goes (default outputs/ch3.3-engine/ex5_blob.rrd)")
     guess = ask(parser, "A disc of starting states in the spring's (x, v_x) plane runs 2000 steps of dt 0.01"
                 " under each integrator. What happens to the disc's area under each one?",
-                EachOf(list(engine.INTEGRATORS), CHOICES), argv)
+                EachOf(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv)
     args = parser.parsed
     problem = rrd_problem(args.rrd) if args.rerun else None
     if problem:
@@ -294,7 +279,6 @@ def main(argv=None) -> int:
         record(args.rrd, table)
         print(f"\nrecording: {args.rrd} (open it with: rerun {args.rrd}; drag the `step` timeline)")
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -10,18 +10,20 @@ The run measures which stay bounded, draws where each one does across dampings a
 and points at the line of MuJoCo's source that decides it for mj_step.
 """
 
+import sys
+
+from curriculum.common.exercise import start
+
+start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
+
 import argparse
 import math
 import re
-import sys
-from pathlib import Path
-
-if __package__ in (None, ""):  # run as a file (python exercises/ex6_stiff_damping.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np
 
 import engine
+import engine_damping
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, verdict
 from exercises.support import stability_map
@@ -32,12 +34,10 @@ MUJOCO_LINE = "d->qH[m->M_rowadr[i] + m->M_rownnz[i] - 1] += m->opt.timestep * d
 MAP_STIFFNESS = [4.0, 3.0, 2.5, 2.0, 1.5, 1.0, 0.5, 0.02]  # w = dt sqrt(k/m), top row stiffest
 MAP_DAMPING = [0.0, 0.001, 0.01, 0.1, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 5.0, 10.0, 100.0]  # c = dt b/m
 
-
 # What people call the four, each made one word; longest first ("semi-implicit Euler" before "implicit Euler").
 PHRASES = [(r"\b(semi[\s_-]*implicit|symplectic)([\s_-]+euler)?\b", "semi_implicit"),
            (r"\b(explicit|forward)[\s_-]+euler\b", "euler"), (r"\bimplicit[\s_-]+euler\b", "implicit"),
            (r"\brk[\s_-]*4\b", "rk4")]
-
 
 class SomeOf:
     """Any number of names from a list, or none, or all: 'rk4, implicit', 'RK4 and implicit', 'none', 'all'."""
@@ -69,25 +69,22 @@ class SomeOf:
             raise ValueError(f"the answer is empty: answer with {self.forms}")
         return frozenset(chosen)
 
-
 def measure(damping: float = DAMPING) -> dict:
     """{integrator: (bounded, blew up at step or None, worst |q - exact|)} on the chapter's damped spring."""
     system = engine.build_system("damped_spring", np.random.default_rng(0), damping)
     results = {}
     for name, step in engine.integrators_for(system).items():
         positions, velocities, energies = engine.simulate(step, system, DT, STEPS)
-        audit = engine.against_exact(system, positions, velocities, energies, engine.kept_steps(STEPS), DT)
+        audit = engine_damping.against_exact(system, positions, velocities, energies, engine.kept_steps(STEPS), DT)
         blown = np.flatnonzero(~np.isfinite(energies))
         results[name] = (audit["bounded"], int(blown[0]) if blown.size else None, audit["err_max"])
     return results
-
 
 def bounded_map() -> dict:
     """{integrator: bool grid (stiffness rows x damping columns)}: one batched run per integrator."""
     w, c = np.meshgrid(MAP_STIFFNESS, MAP_DAMPING, indexing="ij")
     return {name: stability_map.stays_bounded(name, w.ravel(), c.ravel(), steps=2000).reshape(w.shape)
             for name in NAMES}
-
 
 def print_map(grid: dict, here: tuple[int, int]) -> None:
     """Four small maps side by side: '#' bounded, '.' not; the question's spring, at (row, column) here, '@' or 'x'."""
@@ -102,7 +99,6 @@ def print_map(grid: dict, here: tuple[int, int]) -> None:
             cells.append("".join(marks) + "   ")
         print("".join(cells) + f"w = {w:g}")
     print(f"columns: c = dt b/m = {', '.join(f'{c:g}' for c in MAP_DAMPING)}")
-
 
 @one_line_failures("exercises.ex6_stiff_damping")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
@@ -156,7 +152,6 @@ def main(argv=None) -> int:
         " only because 2.5 is under 2.785; at b = 300 it blows up, warns and resets the simulation.",
     )
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

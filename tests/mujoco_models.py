@@ -1,11 +1,11 @@
-"""The engine's three systems as MuJoCo models, for parity tests and the benchmark.
+"""The engine's conservative systems as MuJoCo models, for parity tests and the benchmark.
 
 One body of mass 1 on slide joints, so MuJoCo's qpos/qvel are exactly the engine's q/v
 (no quaternions, a diagonal mass matrix of ones) and no contacts:
 - spring: one slide joint along x with the spring's stiffness, no gravity;
 - freefall: slide joints along x, y, z under gravity, no other force;
-- orbit: slide joints along x, y, z, no gravity; the inverse-square pull is the
-  engine's own force law, handed to MuJoCo through the passive-force callback.
+- orbit, and any system declared later: slide joints along x, y, z, no gravity; the force is
+  the engine's own force law, handed to MuJoCo through the passive-force callback.
 """
 
 import sys
@@ -21,6 +21,9 @@ import engine  # noqa: E402
 BODY = '<inertial pos="0 0 0" mass="{m}" diaginertia="1 1 1"/>'
 SLIDES = "".join(f'<joint name="{axis}" type="slide" axis="{vec}" {{extra}}/>'
                  for axis, vec in (("x", "1 0 0"), ("y", "0 1 0"), ("z", "0 0 1")))
+
+
+NATIVE = ("spring", "freefall")  # built from MuJoCo's own joint stiffness and gravity
 
 
 def xml_for(system_name: str, integrator: str, dt: float, m: float) -> str:
@@ -49,8 +52,9 @@ def build(system_name: str, integrator: str, dt: float = 0.01, seed: int = 0):
 
 @contextmanager
 def passive_force(system_name: str, system: dict):
-    """Install the orbit's pull as MuJoCo's passive-force callback; always reset afterwards."""
-    if system_name != "orbit":
+    """Install the system's force law (the orbit's pull) as MuJoCo's passive-force callback, unless MuJoCo
+    models it natively; always reset afterwards."""
+    if system_name in NATIVE:
         yield
         return
     force = system["force"]

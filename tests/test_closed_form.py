@@ -9,38 +9,61 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
 import engine  # noqa: E402
-from exercises.support.exact import freefall_position, kepler_position, spring_position  # noqa: E402
 
-EXACT = {"spring": spring_position, "freefall": freefall_position, "orbit": kepler_position}
-HORIZON = {"spring": 2.0, "freefall": 2.0, "orbit": 2.0 * math.pi}  # sim seconds, fixed while dt shrinks
-NOMINAL_ORDER = {"euler": 1, "semi_implicit": 1, "rk4": 4}
-# The ladders start where each method is already close to its asymptotic regime: RK4 at
-# coarser steps, because at dt = 0.01 / 32 its error would sink into round-off (~1e-13).
-LADDER = {"euler": [0.01 / 2**k for k in range(6)], "semi_implicit": [0.01 / 2**k for k in range(6)],
-          "rk4": [0.1 / 2**k for k in range(6)]}
+# Every declared system with a closed form, and every integrator that can run it: a new one is tested here
+# the day it is declared. HORIZON: sim seconds, fixed while dt shrinks (one orbit for the orbit).
+WITH_EXACT = [name for name in engine.SYSTEMS if engine.build_system(name, np.random.default_rng(0))["exact"]]
+HORIZON = {"orbit": 2.0 * math.pi}  # any other system: 2 s
+
+
+def exact_at(system, t):
+    """The system's own exact motion (engine.py) from its start, at the times t."""
+    return system["exact"](system["q0"], system["v0"], np.atleast_1d(t))
+
+
+def ladder(integrator):
+    """Six halvings of dt, from where the method is already close to its asymptotic regime: a fourth-order
+    method starts coarser, because at dt = 0.01 / 32 its error would sink into round-off (~1e-13)."""
+    start = 0.1 if engine.INTEGRATORS[integrator].order >= 4 else 0.01
+    return [start / 2**k for k in range(6)]
 
 
 def final_position_error(system_name, integrator, dt):
     system = engine.build_system(system_name, np.random.default_rng(0))
-    steps = round(HORIZON[system_name] / dt)
+    steps = round(HORIZON.get(system_name, 2.0) / dt)
     trajectory, _, _ = engine.simulate(engine.INTEGRATORS[integrator], system, dt, steps)
-    exact = EXACT[system_name](system, steps * dt)
-    return float(np.max(np.abs(trajectory[-1] - exact)))
+    return float(np.max(np.abs(trajectory[-1] - exact_at(system, steps * dt)[0])))
 
 
 def measured_orders(system_name, integrator):
-    errors = [final_position_error(system_name, integrator, dt) for dt in LADDER[integrator]]
+    errors = [final_position_error(system_name, integrator, dt) for dt in ladder(integrator)]
     return [math.log2(coarse / fine) for coarse, fine in zip(errors, errors[1:], strict=False)]
 
 
-@pytest.mark.parametrize("system_name", ["spring", "orbit"])
-@pytest.mark.parametrize("integrator", ["euler", "semi_implicit", "rk4"])
+@pytest.mark.parametrize("system_name", [*engine.SYSTEMS, *engine.DAMPED_SYSTEMS])
+def test_each_exact_motion_solves_its_own_force_law(system_name):
+    """Independent of any integrator: the closed form starts at (q0, v0) and its second difference is
+    force / m along the way (central differences with h = 1e-4: truncation ~1e-8, rounding ~1e-8)."""
+    system = engine.build_system(system_name, np.random.default_rng(0))
+    if system["exact"] is None:
+        pytest.skip(f"{system_name} declares no exact motion")
+    h, t = 1e-4, np.linspace(0.3, 3.0, 10)
+    q, ahead, behind = exact_at(system, t), exact_at(system, t + h), exact_at(system, t - h)
+    velocity, acceleration = (ahead - behind) / (2 * h), (ahead - 2 * q + behind) / (h * h)
+    np.testing.assert_allclose(acceleration, system["force"](q, velocity) / system["m"], rtol=0, atol=1e-5)
+    np.testing.assert_allclose(exact_at(system, 0.0)[0], system["q0"], rtol=0, atol=1e-14)
+    start_velocity = (exact_at(system, h)[0] - exact_at(system, -h)[0]) / (2 * h)
+    np.testing.assert_allclose(start_velocity, system["v0"], rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("system_name", [name for name in WITH_EXACT if engine.SYSTEMS[name].returns])
+@pytest.mark.parametrize("integrator", [name for name, step in engine.INTEGRATORS.items() if step.needs is None])
 def test_convergence_order(system_name, integrator):
-    """Halving dt divides the error by 2^p, up to an O(dt) correction that halves with each rung
-    (measured on the orbit, RK4: 4.29, 4.18, 4.09, 4.05, 4.03). At the finest rung it is below
-    0.05 everywhere here, tight enough that order 1 cannot pass for 2, nor 4 for 3 or 5."""
+    """Halving dt divides the error by 2^p, p the order the integrator declares, up to an O(dt) correction
+    that halves with each rung (measured on the orbit, RK4: 4.29, 4.18, 4.09, 4.05, 4.03). At the finest
+    rung it is below 0.05 everywhere here, tight enough that order 1 cannot pass for 2, nor 4 for 3 or 5."""
     orders = measured_orders(system_name, integrator)
-    p = NOMINAL_ORDER[integrator]
+    p = engine.INTEGRATORS[integrator].order
     assert abs(orders[-1] - p) < 0.05, orders
     assert abs(orders[-1] - p) <= abs(orders[-3] - p) + 0.01, f"the order should settle towards {p}: {orders}"
 
@@ -52,7 +75,7 @@ def test_euler_freefall_error_is_exactly_g_h_t_over_2(integrator, sign):
     for dt in (0.01, 0.005):
         system = engine.build_system("freefall", np.random.default_rng(0))
         trajectory, _, _ = engine.simulate(engine.INTEGRATORS[integrator], system, dt, round(2.0 / dt))
-        error = trajectory[-1, 2] - freefall_position(system, 2.0)[2]
+        error = trajectory[-1, 2] - exact_at(system, 2.0)[0, 2]
         assert error == pytest.approx(sign * 9.81 * dt * 2.0 / 2, rel=1e-9)
 
 
@@ -62,7 +85,7 @@ def test_rk4_is_exact_on_freefall_to_round_off():
     for dt in (0.1, 0.01, 0.001):
         steps = round(2.0 / dt)
         trajectory, _, _ = engine.simulate(engine.rk4_step, system, dt, steps)
-        exact = freefall_position(system, np.arange(steps + 1) * dt)
+        exact = exact_at(system, np.arange(steps + 1) * dt)
         scale = np.max(np.abs(exact))
         assert np.max(np.abs(trajectory - exact)) < 64 * np.finfo(float).eps * scale * math.sqrt(steps)
 
@@ -85,6 +108,6 @@ def test_semi_implicit_energy_band_is_flat_over_a_million_steps():
 if __name__ == "__main__":
     # python tests/test_closed_form.py: the measured orders the README quotes
     for system_name in ("spring", "orbit"):
-        for integrator in NOMINAL_ORDER:
+        for integrator in engine.CHAPTER_INTEGRATORS:
             orders = ", ".join(f"{order:.3f}" for order in measured_orders(system_name, integrator))
-            print(f"{system_name:<7}{integrator:<15}dt {LADDER[integrator][0]:g} halved 5 times: orders {orders}")
+            print(f"{system_name:<7}{integrator:<15}dt {ladder(integrator)[0]:g} halved 5 times: orders {orders}")

@@ -17,11 +17,14 @@ import sys
 import pytest
 
 from conftest import REPO
+from curriculum.common.exercise import exercises
 
 ANSWERS = (REPO / "exercises" / "solutions" / "ANSWERS.md").read_text()
 PRISTINE_STUB = REPO / "tests" / "pristine" / "ex2_integrators.py"
-PREDICT_THEN_RUN = ["ex1_runaway", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob", "ex6_stiff_damping"]
-EXERCISE_MODULES = [*PREDICT_THEN_RUN, "check_ex2", "ex2_integrators", "support.exact"]
+EXERCISES = exercises(REPO / "exercises")  # found by file name: a new exercise is read here without an edit
+PREDICT_THEN_RUN = [name for _, name, kind in EXERCISES if kind == "predict"]
+CHECKERS = [f"check_ex{number}" for number, _, kind in EXERCISES if kind == "code"]
+EXERCISE_MODULES = [name for _, name, _ in EXERCISES] + CHECKERS
 
 
 def section(heading: str) -> str:
@@ -83,15 +86,15 @@ def exercise_texts() -> dict:
     texts = {name: without_output_blocks((REPO / name).read_text())
              for name in ("README.md", "exercises/README.md", "exercises/HINTS.md")}
     for module_name in EXERCISE_MODULES:  # the stub as a student first opens it: the pristine copy, not their edits
-        if module_name == "ex2_integrators":
+        if module_name == PRISTINE_STUB.stem:
             texts["exercises/ex2_integrators.py docstring"] = ast.get_docstring(ast.parse(PRISTINE_STUB.read_text()))
             continue
         module = importlib.import_module(f"exercises.{module_name}")
         texts[f"exercises/{module_name}.py docstring"] = module.__doc__
-    for module_name in [*PREDICT_THEN_RUN, "check_ex2"]:
+    for module_name in [*PREDICT_THEN_RUN, *CHECKERS]:
         module = importlib.import_module(f"exercises.{module_name}")
         for argv, what in ((["--help"], "--help"), ([], "bare question")):
-            if module_name == "check_ex2" and not argv:
+            if module_name in CHECKERS and not argv:
                 continue  # bare, the checker checks: it asks nothing
             out = io.StringIO()
             with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
@@ -106,6 +109,17 @@ def test_the_answers_are_where_teachers_find_them():
                                                                                           "rk4"}
     assert len(measured_figures()) > 40
     assert "python -m exercises.ex4_long_run --predict" in section("Exercise 4")
+
+
+@pytest.mark.parametrize("number, module", [(n, m) for n, m, kind in EXERCISES if kind == "predict"])
+def test_every_predict_then_run_exercise_has_its_answer_for_teachers(number, module):
+    """An exercise is its file, its section in exercises/README.md and its section in ANSWERS.md: this names the
+    section that is missing, with the command and the output a teacher reads (pasted from a run)."""
+    assert f"## Exercise {number}" in ANSWERS, f"exercises/solutions/ANSWERS.md has no '## Exercise {number}' section"
+    commands = [command for command, _ in answers_with_their_commands() if f"-m exercises.{module} " in command]
+    assert commands, (f"ANSWERS.md's exercise {number} shows no `python -m exercises.{module} --predict ...` line"
+                      " with the output it prints below it")
+    assert all("--predict" in command for command in commands)
 
 
 def test_nothing_a_student_reads_first_gives_an_answer_away():
@@ -152,8 +166,9 @@ def printed_commands() -> list:
 
 def test_the_readmes_print_the_commands_we_expect():
     commands = [c for _, c in printed_commands()]
-    for module in ("ex1_runaway", "check_ex2", "ex3_halve_dt", "ex4_long_run", "ex5_phase_blob"):
-        assert any(f"python -m exercises.{module}" in c for c in commands), module
+    for module in [*PREDICT_THEN_RUN, *CHECKERS]:
+        assert any(f"python -m exercises.{module}" in c for c in commands), \
+            f"exercises/README.md shows no command for {module}: give it a section with its commands"
     assert any(c.startswith("python engine.py") for c in commands)
 
 
@@ -175,16 +190,16 @@ def test_every_printed_command_runs_as_written(readme, command, tmp_path):
     assert "Traceback" not in result.stdout + result.stderr and "Error" not in result.stderr
 
 
-@pytest.mark.parametrize("module, inside", [("ex1_runaway", False), ("check_ex2", False), ("ex3_halve_dt", True),
-                                            ("ex4_long_run", True), ("ex1_runaway", True), ("check_ex2", True)])
+@pytest.mark.parametrize("module", [*PREDICT_THEN_RUN, *CHECKERS])
+@pytest.mark.parametrize("inside", [False, True], ids=["from the root", "from inside exercises"])
 def test_every_exercise_runs_as_a_file_too(module, inside):
-    """`python exercises/ex1_runaway.py` from the root, or `cd exercises && python ex1_runaway.py`: each exercise
-    one way, ex1 and the checker both ways (the same four lines at the top of each file make both work)."""
+    """`python exercises/ex1_runaway.py` from the root, or `cd exercises && python ex1_runaway.py`: the first
+    lines of each file (curriculum.common.exercise.start) make both work."""
     cwd, script = (REPO / "exercises", f"{module}.py") if inside else (REPO, f"exercises/{module}.py")
-    result = subprocess.run([sys.executable, script, *(["--help"] if module == "check_ex2" else [])], cwd=cwd,
+    result = subprocess.run([sys.executable, script, *(["--help"] if module in CHECKERS else [])], cwd=cwd,
                             capture_output=True, text=True, timeout=60)
     assert result.stderr == ""
-    if module == "check_ex2":
+    if module in CHECKERS:
         assert result.returncode == 0 and "usage:" in result.stdout
     else:
         assert result.returncode == 0 and f"python {script} --predict ANSWER" in result.stdout

@@ -21,7 +21,7 @@ import hashlib, numpy as np, engine
 seeds, digest = {seeds}, hashlib.sha256()
 for system_name in engine.SYSTEMS:
     ensemble = engine.build_ensemble(system_name, seeds)
-    for name, step in engine.INTEGRATORS.items():
+    for name, step in engine.integrators_for(ensemble).items():
         batch = engine.simulate(step, ensemble, 0.01, 400)
         for i, seed in enumerate(seeds):
             single = engine.run(system_name, name, 0.01, 400, seed)
@@ -177,7 +177,7 @@ def test_recording_holds_member_paths_and_error_spread(tmp_path):
     rows = {}
     for chunk in reader.stream(store=recording).to_chunks():
         rows.setdefault(chunk.entity_path, []).append(chunk.to_record_batch())
-    for name in engine.INTEGRATORS:
+    for name in engine.integrators_for(engine.build_system("orbit", np.random.default_rng(0))):
         (paths,) = [b for b in rows[f"/ensemble_paths/{name}"] if "LineStrips3D:strips" in b.schema.names]
         assert len(paths.column("LineStrips3D:strips").to_pylist()[0]) == 20  # SHOWN_MEMBERS strips
         for which in ("min", "median", "max"):

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+import engine as chapter
 from conftest import REPO
 from curriculum.common import outputs
 from curriculum.common.outputs import OutputError, content_id, folder_problem, read_run, write_run
@@ -745,7 +746,7 @@ def engine_drift_of_each_seed(members: int) -> dict:
     import engine as chapter
 
     return {name: [chapter.energy_drift(chapter.run("orbit", name, dt=1.33e154, steps=1, seed=seed)[2])["diverged"]
-                   for seed in range(members)] for name in chapter.INTEGRATORS}
+                   for seed in range(members)] for name in chapter.CHAPTER_INTEGRATORS}
 
 
 def test_the_verdict_cannot_judge_when_semi_implicit_left_its_band(tmp_path, capsys):
@@ -766,7 +767,7 @@ def test_the_verdict_cannot_judge_drifts_that_are_all_round_off(flags, tmp_path,
     assert "as expected" in run_here(capsys, "--dt", "1e-6", "--steps", "100", "--no-rerun", "--out", tmp_path)[1]
 
 
-@pytest.mark.parametrize("system", ["orbit", "spring", "freefall"])
+@pytest.mark.parametrize("system", list(chapter.SYSTEMS))
 def test_a_timestep_too_small_to_move_the_state_is_warned_about(system, tmp_path, capsys):
     code, _, err = run_here(capsys, "--dt", "1e-320", "--system", system, "--no-rerun", "--out", tmp_path)
     assert code == 0

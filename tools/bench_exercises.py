@@ -8,24 +8,27 @@ quotes its output.
 
 import os
 import platform
+import re
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+from curriculum.common.exercise import exercises  # noqa: E402  (the repo is importable from here on)
+
 TARGET_SECONDS = 10.0
-COMMANDS = [
-    "python -m exercises.ex1_runaway",
-    "python -m exercises.ex1_runaway --predict rk4",
-    "python -m exercises.check_ex2",
-    "python -m exercises.check_ex2 exercises/solutions/ex2_integrators.py",
-    "python -m exercises.ex3_halve_dt --predict euler=1,semi_implicit=1,rk4=1",
-    "python -m exercises.ex3_halve_dt --predict euler=1,semi_implicit=1,rk4=1 --system spring",
-    "python -m exercises.ex4_long_run --predict 10",
-    "python -m exercises.ex5_phase_blob --predict euler=stays,semi_implicit=stays,rk4=stays",
-    "python -m exercises.ex6_stiff_damping --predict none",
-]
+
+
+def commands() -> list:
+    """Each exercise bare, and every command ANSWERS.md pastes (the ones that measure): found, not listed."""
+    answers = (REPO / "exercises" / "solutions" / "ANSWERS.md").read_text()
+    pasted = re.findall(r"`(python -m exercises\.\S+ [^`]+)`[^`\n]*\n\n```", answers)
+    bare = [f"python -m exercises.{name}" for _, name, kind in exercises(REPO / "exercises") if kind == "predict"]
+    checkers = [f"python -m exercises.check_ex{number}" for number, _, kind in exercises(REPO / "exercises")
+                if kind == "code"]
+    return [*bare, *checkers, *pasted]
 
 
 def wall_seconds(command: str) -> float:
@@ -40,7 +43,7 @@ def main() -> int:
     print(f"python {platform.python_version()}, {os.cpu_count()} cores, load average {load:.1f} at the start")
     print(f"{'best of 3, s':>12}  command")
     slowest = 0.0
-    for command in COMMANDS:
+    for command in commands():
         best = min(wall_seconds(command) for _ in range(3))
         slowest = max(slowest, best)
         print(f"{best:>12.2f}  {command}")

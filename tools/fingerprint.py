@@ -18,7 +18,7 @@ import engine  # noqa: E402
 def fingerprint() -> str:
     digest = hashlib.sha256()
     for system_name in ("orbit", "spring", "freefall"):
-        for integrator in engine.INTEGRATORS:
+        for integrator in engine.CHAPTER_INTEGRATORS:
             positions, velocities, energies = engine.run(system_name, integrator)
             digest.update(positions.tobytes())
             digest.update(velocities.tobytes())
