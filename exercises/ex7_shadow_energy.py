@@ -16,16 +16,11 @@ timeline (outputs/ch3.3-engine/ex7_shadow.rrd; --no-rerun skips it, --rrd PATH p
 
 import sys
 
-if __package__ in (None, ""):  # run as a file (python exercises/ex7_shadow_energy.py): make the repo importable
-    from pathlib import Path
+from curriculum.common.exercise import start
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
 
-from curriculum.common.interrupts import guard
-
-guard("exercises.ex7_shadow_energy")  # from here on, Ctrl-C or SIGTERM ends in one line, never a traceback
-
-import argparse  # (below the guard on purpose: numpy takes a moment to load)
+import argparse
 from pathlib import Path
 
 import numpy as np

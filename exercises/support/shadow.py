@@ -28,8 +28,7 @@ def shadow_energy(system: dict, q, v, dt: float):
 
 def relative_change(values) -> np.ndarray:
     """|x - x0| / |x0| at every step: how far a quantity has moved from where it started."""
-    values = np.asarray(values, dtype=float)
-    return np.abs(values - values[0]) / abs(values[0])
+    return np.abs(engine.relative_energy_error(np.asarray(values, dtype=float)))
 
 
 def band(values) -> float:
