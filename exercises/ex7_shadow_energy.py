@@ -142,22 +142,24 @@ def explain_all(runs: dict, ladder: list, others: dict, long_euler: dict) -> Non
     (_, _, e_first, s_first), (_, _, e_next, s_next) = ladder[0], ladder[1]
     explain(
         "",
-        "Backward error analysis (Hairer, Lubich and Wanner, Geometric Numerical Integration, chapter IX) asks"
-        " the question the other way round: not how far the steps are from the true motion, but which motion"
-        " the steps follow exactly. For semi-implicit Euler the answer is, very nearly, the exact motion of a"
-        " slightly different system, and because the method is symplectic that system is again a mechanical"
-        " one, with an energy of its own: E~ = E + (dt/2) v . F(q) + (terms of order dt^2). The steps keep that"
-        " energy, not E. E~ here is its first term.",
+        "Backward error analysis (Hairer, Lubich and Wanner, Geometric Numerical Integration, chapter IX) turns"
+        " the question round: not how far the steps are from the true motion, but which motion they follow"
+        " exactly. For semi-implicit Euler the answer is, very nearly, the exact motion of a slightly different"
+        " system; because the method is symplectic, that system is again a mechanical one, with an energy of its"
+        " own, E + (dt/2) v . F(q) + (terms in dt^2, dt^3, ...). The steps keep that energy, not E (to an error"
+        " too small to see, for a time that grows exponentially as dt shrinks). The E~ you measured is its first"
+        " two terms.",
         f"- spring: a linear force. The step is a fixed 2x2 map (exercise 5), and E~ = E - k dt x v / 2 is"
         " kept by it exactly (the rest of the series only multiplies it by a constant): what you see,"
         f" {spring['shadow_band']:.0e}, is round-off, under the"
         f" {spring['roundoff']:.0e} that rounding could do in {STEPS:,} steps. E itself moves by"
         f" {spring['energy_band']:.2e} and comes back.",
-        f"- orbit: a force that is not linear, so E~ is only the first term of a series, and what is left is of"
+        f"- orbit: a force that is not linear, so the series goes on past E~, and what E~ leaves out is of"
         f" order dt^2. E~ moves by {orbit['shadow_band']:.2e}, {orbit['energy_band'] / orbit['shadow_band']:.0f}"
         f" times less than E. Halve dt at a fixed {seconds:g} s and E~'s band shrinks by"
         f" {s_first / s_next:.2f} (dt^2), E's by {e_first / e_next:.2f} (dt): E's band is the dt term itself.",
-        f"- freefall: a constant force, and E~ = E - (dt/2) m g v_z is kept exactly too (one step: v_z loses"
+        f"- freefall: a constant force, the series stops at E~, and E~ = E - (dt/2) m g v_z is"
+        f" kept exactly too (one step: v_z loses"
         f" g dt, z gains dt v_z_new, and the three terms cancel). The {freefall['shadow_band']:.0e} is round-off"
         f" at a depth of {depth:,.0f} m, where the kinetic and the potential energy are each about"
         f" {round(fall['m'] * g * depth, -3):,.0f} J and each rounds at that size; it grows with the run.",
@@ -168,8 +170,9 @@ def explain_all(runs: dict, ladder: list, others: dict, long_euler: dict) -> Non
         f" drift by exactly -(dt/2) m g^2 t, {predicted:+.4e} of E0 after {seconds:g} s; measured"
         f" {drift:+.4e}. The method is just as symplectic here, and keeps E~ just as well: it is the distance"
         " between E and E~ that has no bound.",
-        f"- This E~ is semi-implicit Euler's. Explicit Euler is not symplectic and keeps no nearby energy: its E~"
-        f" grows with its E (spring: {others[('spring', 'euler')]['shadow_band']:.2g} after {STEPS:,} steps,"
+        f"- This E~ is semi-implicit Euler's. Explicit Euler is not symplectic: on the spring and the orbit it"
+        f" keeps no nearby energy, and its E~ grows with its E (spring:"
+        f" {others[('spring', 'euler')]['shadow_band']:.2g} after {STEPS:,} steps,"
         f" {long_euler['shadow_band']:.0f} after {LONG_STEPS:,}). RK4 nearly keeps E itself, so its E~ wobbles"
         f" by the correction's own size ({others[('spring', 'rk4')]['shadow_band']:.1e} on the spring,"
         f" {others[('orbit', 'rk4')]['shadow_band']:.1e} on the orbit), far above RK4's own error. (Not on the"
