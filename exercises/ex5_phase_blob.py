@@ -274,6 +274,10 @@ def main(argv=None) -> int:
         " That is the band: not energy conserved, but a nearby energy conserved and the true one held near it.",
         "Explicit Euler has no such quadratic (its area grows, so every ellipse grows), and RK4's shrinks by"
         " a hair each step: its energy creeps down, never back. Exercise 4 measured how long that takes to matter.",
+        "So on the spring the energy follows the area for explicit Euler and RK4, whose steps are a rotation"
+        " times a scale, but not for semi-implicit Euler: its area is kept exactly while its E moves and comes"
+        " back. Exercise 7 writes E~ for any force, E - (dt/2) v . grad V, and asks what it does on the orbit and"
+        " the freefall.",
     )
     if args.rerun:
         record(args.rrd, table)
