@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from curriculum.common import write_atomic
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import explain, verdict
@@ -126,7 +127,7 @@ def main(argv=None) -> int:
     if args.rerun:
         from exercises.support.shadow_recording import record
 
-        record(args.rrd, runs)
+        write_atomic(args.rrd, record(runs))  # built in memory, then written whole, as exercise 5's
         print(f"\nrecording: {args.rrd} (open it with: rerun {args.rrd})")
     return 0
 
