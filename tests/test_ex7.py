@@ -300,6 +300,93 @@ def test_a_student_run_takes_under_ten_seconds(tmp_path):
     assert time.perf_counter() - start < 10.0
 
 
+# --- the recording, read back with Rerun's own reader ---
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory, chapter):
+    """What a student's run writes: (entities, blueprint settings) read back from the .rrd, and the runs."""
+    pytest.importorskip("rerun.chunk", reason="rerun-sdk is a core dependency; install the project")
+    from test_recording import read_recording
+
+    rrd = tmp_path_factory.mktemp("ex7") / "shadow.rrd"
+    assert ex7.main(["--predict", RIGHT, "--rrd", str(rrd)]) == 0
+    _, entities, settings = read_recording(rrd)
+    return entities, settings, chapter
+
+
+@pytest.mark.parametrize("system_name", shadow.SYSTEMS)
+def test_the_recording_holds_e_and_e_tilde_worst_so_far_at_every_step(recording, system_name):
+    from test_recording import column
+
+    entities, _, chapter = recording
+    run = chapter[system_name]
+    for entity, values in (("energy", run["energy"]), ("energy_shadow", run["shadow"])):
+        batches = entities[f"/{system_name}/{entity}"]
+        assert column(batches, "step") == list(range(shadow.STEPS + 1))
+        logged = np.ravel(column(batches, "Scalars:scalars"))
+        worst = np.maximum.accumulate(np.abs(values - values[0]) / abs(values[0]))
+        np.testing.assert_array_equal(logged, np.log10(np.maximum(worst, 1e-16)))
+        assert np.all(np.diff(logged) >= 0), "a running maximum: round-off draws flat, never as noise"
+    e_tilde = np.ravel(column(entities[f"/{system_name}/energy_shadow"], "Scalars:scalars"))
+    assert e_tilde[0] == -16.0  # nothing has moved at step 0: it sits on the floor
+    floor = entities[f"/{system_name}/roundoff_floor"]
+    assert np.ravel(column(floor, "Scalars:scalars")).tolist() == [-16.0, -16.0]
+    assert "round-off" in column(floor, "SeriesLines:names")[0][0]
+    bound = np.ravel(column(entities[f"/{system_name}/roundoff_bound"], "Scalars:scalars"))
+    assert bound.tolist() == [np.log10(run["roundoff"])] * 2
+    # the lesson at the last step: under the bound on the spring and the freefall, above it on the orbit
+    assert (e_tilde[-1] <= bound[0]) == (system_name != "orbit")
+
+
+def test_the_recording_opens_on_three_plots_of_the_whole_run(recording):
+    import rerun.blueprint as rrb
+    from test_recording import views_of
+
+    _, settings, _ = recording
+    views = views_of(settings)
+    assert set(views) == {("TimeSeries", name) for name in shadow.SYSTEMS}
+    for (_, origin), props in views.items():
+        assert props["TimeAxis:view_range"] == {"start": 0, "end": shadow.STEPS}, f"{origin}: all the steps"
+        low, high = props["ScalarAxis:range"]
+        assert low < -16.0 and high > 0.0, f"{origin}: from the floor to an error as large as the quantity"
+    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    assert settings["/selection_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    time_panel = settings["/time_panel"]
+    assert time_panel["TimePanelBlueprint:timeline"] == "step"
+    assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
+
+
+def test_the_recording_uses_the_course_palette(recording):
+    from test_recording import column, packed
+
+    from curriculum.common import recording as course
+
+    entities, _, _ = recording
+    colour = column(entities["/orbit/energy"], "SeriesLines:colors")[0][0]
+    assert colour == packed(course.COLOURS["semi_implicit"])  # E is semi-implicit Euler's, in its colour
+    e_tilde = column(entities["/orbit/energy_shadow"], "SeriesLines:colors")[0][0]
+    assert e_tilde in [packed(c) for c in course.SPARE_COLOURS]
+
+
+def test_an_unwritable_recording_path_gets_one_line_before_measuring(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    result = run_ex7("--predict", RIGHT, "--rrd", str(blocker / "x.rrd"))
+    assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1
+    assert "a_file is a file" in result.stderr
+    result = run_ex7("--predict", RIGHT, "--rrd", "README.md")
+    assert result.returncode == 2 and result.stdout == "" and "does not end in .rrd" in result.stderr
+
+
+@pytest.mark.slow
+def test_as_a_student_runs_it_the_recording_goes_under_outputs(tmp_path):
+    result = run_ex7("--predict", RIGHT, cwd=tmp_path)
+    assert result.returncode == 0 and result.stderr == ""
+    assert (tmp_path / "outputs" / "ch3.3-engine" / "ex7_shadow.rrd").stat().st_size > 0
+    assert [p.name for p in (tmp_path / "outputs" / "ch3.3-engine").iterdir()] == ["ex7_shadow.rrd"]
+
+
 if __name__ == "__main__":
     for k, m in [(4.0, 1.0), (3.0, 2.5)]:
         energy_band, shadow_band, roundoff = mujoco_bands(k, m)
