@@ -292,6 +292,22 @@ def test_answers_md_holds_the_graded_answer():
     assert f"The graded answer is `{RIGHT}`." in section
 
 
+@pytest.mark.parametrize("signal_name, code", [("SIGINT", 130), ("SIGTERM", 143)])
+def test_a_signal_mid_run_ends_in_one_line_and_writes_nothing(signal_name, code, tmp_path):
+    """Ctrl-C or SIGTERM while it measures: one line, exit 130 or 143, no recording, no traceback."""
+    import signal
+
+    child = subprocess.Popen([sys.executable, "-m", "exercises.ex7_shadow_energy", "--predict", RIGHT], cwd=tmp_path,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             env={"PYTHONPATH": str(REPO), "PATH": ""})
+    time.sleep(1.0)  # imports done, measuring (a whole run takes about 2 s here)
+    child.send_signal(getattr(signal, signal_name))
+    _, err = child.communicate(timeout=60)
+    assert child.returncode == code, err
+    assert len(err.splitlines()) == 1 and "no file was written" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.slow
 def test_a_student_run_takes_under_ten_seconds(tmp_path):
     start = time.perf_counter()
