@@ -275,7 +275,7 @@ def test_graded_both_ways(capsys):
     assert ex7.main(["--predict", "Spring = round-off,", "orbit: smaller, freefall=roundoff", "--no-rerun"]) == 0
     right = capsys.readouterr().out
     assert "Right: spring roundoff, orbit smaller, freefall roundoff." in right
-    assert ex7.main(["--predict", "spring=roundoff,orbit=smaller,freefall=as far", "--no-rerun"]) == 0
+    assert ex7.main(["--predict", "spring=roundoff,orbit=smaller,freefall=as-far", "--no-rerun"]) == 0
     wrong = capsys.readouterr().out
     assert "Not quite: you said spring=roundoff, orbit=smaller, freefall=as_far, but" in wrong
     assert re.search(r"\nfreefall +9\.341e-02 +1e-11 +1e-09 +roundoff +as_far \(no\)\n", wrong)
