@@ -291,6 +291,10 @@ def main(argv=None) -> int:
         "Explicit Euler has no such quadratic (its area grows, so every ellipse grows), and RK4's shrinks by"
         " a hair each step: on this linear spring its energy goes down at every step, never back. Exercise 4"
         " measured how long such a creep takes to matter on the orbit.",
+        "So on the spring the energy follows the area for explicit Euler and RK4, whose steps are a rotation"
+        " times a scale, but not for semi-implicit Euler: its area is kept exactly while its E moves and comes"
+        " back. Exercise 7 writes E~ for any force, E - (dt/2) v . grad V, and asks what it does on the orbit and"
+        " the freefall.",
     )
     if args.rerun:
         record(args.rrd, table)
