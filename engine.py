@@ -34,8 +34,16 @@ from pathlib import Path
 
 import numpy as np
 
-from curriculum.common.cli import OneLineParser, int_in, name_arg, positive_finite, progress_printer
+from curriculum.common.cli import (
+    OneLineParser,
+    int_in,
+    name_arg,
+    positive_finite,
+    progress_printer,
+    rerun_switched_off,
+)
 from curriculum.common.device import banner, wall_clock
+from curriculum.common.interrupts import memory_problem, signal_in
 from curriculum.common.outputs import (
     content_id,
     folder_arg,
@@ -49,6 +57,7 @@ from engine_ensembles import (
     ensemble_block,
     ensemble_bytes,
     ensemble_every,
+    ensemble_most_members,
     print_ensemble_report,
     summarize_ensemble,
 )
@@ -58,6 +67,8 @@ from engine_ensembles import (
 DEFAULT_STEPS = 2000  # the chapter's run: 20 s of sim time at dt 0.01
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
 MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
+MAX_SEED = 2**64 - 1  # any seed numpy takes would do; past 4,300 digits Python cannot even print one
+MAX_DAMPING = 1e150  # past ~2.7e154, (b / 2m)^2 in the exact solution overflows to inf
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
 CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
 PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
@@ -239,14 +250,40 @@ def damped_oscillator(q0, v0, k: float, m: float, b: float, t):
     return ab[..., 0].reshape(one_per_row) * q0 + ab[..., 1].reshape(one_per_row) * v0
 
 
-def build_ensemble(name: str, seeds) -> dict:
+def build_ensemble(name: str, seeds, progress=None) -> dict:
     """One system, N bodies stepped as a batch: q0 and v0 become (N, 3), one row per seed.
 
-    Row i starts exactly where build_system(name, default_rng(seeds[i])) does; the force
-    and energy laws are the same for every member, so they are shared.
+    Row i starts exactly where build_system(name, default_rng(seeds[i])) does: each seed gets its own
+    generator, as a single run does, but only its one jitter is drawn per seed. The rest, the force
+    and energy laws included, is built once: with the jitter 0 (the start) and 1 (what it moves).
+    progress(done), if given, is called as the members' draws are made.
     """
-    members = [build_system(name, np.random.default_rng(seed)) for seed in seeds]
-    return {**members[0], "q0": np.stack([s["q0"] for s in members]), "v0": np.stack([s["v0"] for s in members])}
+    zero, one = OneDraw(0.0), OneDraw(1.0)
+    system, moved = build_system(name, zero), build_system(name, one)
+    jitter = np.empty(len(seeds))
+    for first in range(0, len(seeds), 100_000):
+        chunk = seeds[first:first + 100_000]
+        jitter[first:first + len(chunk)] = [np.random.default_rng(seed).uniform(*zero.bounds) for seed in chunk]
+        if progress:
+            progress(first + len(chunk))
+    starts = {}
+    for key in ("q0", "v0"):
+        starts[key] = np.tile(system[key], (len(seeds), 1))
+        jittered = np.flatnonzero(moved[key] != system[key])  # the component the jitter moves, if it is here
+        starts[key][:, jittered] = starts[key][:, jittered] + jitter[:, None]  # start + draw, as build_system adds it
+    return {**system, **starts}
+
+
+class OneDraw:
+    """Stands in for a generator in build_system, which draws each system's jitter with one
+    rng.uniform(low, high): returns `value` and notes (low, high)."""
+
+    def __init__(self, value: float):
+        self.value, self.bounds = value, None
+
+    def uniform(self, low: float, high: float) -> float:
+        self.bounds = (low, high)
+        return self.value
 
 
 # --- integrators ---
@@ -565,7 +602,7 @@ def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solut
 
 def parse_args(argv=None) -> argparse.Namespace:
     parser = OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seed", type=int_in(0, None, "--seed"), default=0,
+    parser.add_argument("--seed", type=int_in(0, MAX_SEED, "--seed"), default=0,
                         help="seeds the one jittered initial condition per system (default 0)")
     parser.add_argument("--system", type=name_arg, choices=SYSTEMS + DAMPED_SYSTEMS, default="orbit",
                         help="which system to integrate; damped_spring is the one that is not conservative"
@@ -573,7 +610,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--integrator", type=name_arg, choices=["all", *INTEGRATORS, "implicit"], default="all",
                         help="'all' runs the three-way comparison, which is the point; on damped_spring it"
                              " adds implicit, the damping taken at the new velocity (default all)")
-    parser.add_argument("--damping", type=positive_finite("--damping"), default=None,
+    parser.add_argument("--damping", type=positive_finite("--damping", MAX_DAMPING), default=None,
                         help=f"damped_spring's b in N s/m (default {DAMPING}); 300 at dt 0.01 is the stiff case")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
                         help="timestep in sim seconds, any positive number; raise it and every drift grows"
@@ -582,9 +619,11 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help=f"steps per integrator, 1 to {MAX_STEPS:,} (default {DEFAULT_STEPS:,})")
     parser.add_argument("--smoke", action="store_true",
                         help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
-    parser.add_argument("--ensemble", type=int_in(1, None, "--ensemble"), default=None, metavar="N",
-                        help="also run seeds --seed .. --seed+N-1 together and report the spread, N up to what"
-                             f" fits in {ENSEMBLE_MEMORY / 1e9:g} GB (about 44,000 orbits of 2,000 steps; default off)")
+    parser.add_argument("--ensemble", type=int_in(1, ensemble_most_members(1), "--ensemble"), default=None,
+                        metavar="N", help="also run seeds --seed .. --seed+N-1 together and report the spread, N up to"
+                        f" what fits in {ENSEMBLE_MEMORY / 1e9:g} GB (about"
+                        f" {ensemble_most_members(DEFAULT_STEPS) // 1000 * 1000:,} orbits of {DEFAULT_STEPS:,} steps;"
+                        " default off)")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
     parser.add_argument("--out", type=folder_arg, default=Path("outputs/ch3.3-engine"),
@@ -594,6 +633,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--no-rerun", dest="rerun", action="store_false",
                         help="skip the recording; rerun is then never imported")
     args = parser.parse_args(argv)
+    if args.rerun and rerun_switched_off():  # RERUN=off, Rerun's own switch (a course may set it on CI)
+        print(f"engine.py: note: {rerun_switched_off()} is set, so no recording is made (as with --no-rerun)",
+              file=sys.stderr)
+        args.rerun = False
     if args.system not in DAMPED_SYSTEMS and args.damping is not None:
         parser.error(f"argument --damping: only --system {' or '.join(DAMPED_SYSTEMS)} has a damper")
     if args.system in DAMPED_SYSTEMS and args.ensemble:
@@ -624,17 +667,18 @@ def rerun_problem() -> str | None:
     """Why the recording cannot be made (rerun-sdk missing or broken), or None. Imports it: needed anyway."""
     try:
         import rerun  # noqa: F401
-    except ImportError as error:
-        if error.name == "rerun":
+    except BaseException as error:  # a broken install fails in many ways; a memory limit in a few more
+        if isinstance(error, ImportError) and error.name == "rerun":
             return "the recording needs rerun-sdk: run `pip install -e .` first, or pass --no-rerun"
+        if not isinstance(error, Exception) or signal_in(error):
+            raise  # Ctrl-C or SIGTERM (also one that surfaced as an ImportError): not a problem of the install
+        if memory_problem(error):  # a memory limit (ulimit -v): nothing is broken
+            return f"not enough memory to load rerun-sdk ({memory_problem(error)}); raise the memory limit or" \
+                   " pass --no-rerun"
         why = f"{type(error).__name__}: {error}".splitlines()[0]
-    except Exception as error:  # a broken install fails in many ways
-        why = f"{type(error).__name__}: {error}".splitlines()[0]
-    else:
-        return None
-    if "failed to map segment" in why or "Cannot allocate memory" in why:  # a memory limit (ulimit -v)
-        return f"not enough memory to load rerun-sdk ({why}); raise the memory limit or pass --no-rerun"
-    return f"rerun-sdk is installed but does not import ({why}); reinstall it (`pip install -e .`) or pass --no-rerun"
+        return f"rerun-sdk is installed but does not import ({why}); reinstall it (`pip install -e .`) or pass" \
+               " --no-rerun"
+    return None
 
 
 @one_line_failures("engine.py", memory_hint="fewer --steps need less")  # Ctrl-C 130, SIGTERM 143, OS errors: one line

@@ -13,6 +13,8 @@ import numpy as np
 CHAPTER_INTEGRATORS = ("euler", "semi_implicit", "rk4")  # the ordering the verdict checks is theirs
 ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
 ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
+ENSEMBLE_BASE = 200_000_000  # bytes a run holds before its members: Python, numpy, Rerun (~150 MB measured)
+ENSEMBLE_MEMBER = 700  # bytes per member whatever the steps (~500 measured at --steps 1; see ensemble_bytes)
 ROUNDOFF_DRIFT = 1e-12  # explicit Euler drifting less than this: every drift is round-off, no ordering to judge
 SHOWN_MEMBERS = 20  # member paths an ensemble's recording draws: enough to see the spread, few enough to open
 
@@ -23,9 +25,17 @@ def ensemble_every(steps: int, members: int) -> int:
 
 
 def ensemble_bytes(steps: int, members: int) -> int:
-    """Memory one integrator's ensemble holds at its peak: every energy (8 bytes) and whether it is
-    finite (1 byte), the kept positions and velocities, and the recording's error spread over them."""
-    return 9 * (steps + 1) * members + 3 * 8 * ENSEMBLE_KEPT_VALUES
+    """The most memory an --ensemble run holds at once, the whole process counted (measured peaks in
+    docs/ensembles.md stay under it): Python, numpy, Rerun and the recording (ENSEMBLE_BASE); for every
+    member its energy at every step (8 bytes) and whether it is finite (1 byte); what one member costs
+    whatever the steps (ENSEMBLE_MEMBER: its start, RK4's temporaries, its drifts, the seeds the ordering
+    fails for); and the kept positions and velocities with the recording's error spread over them."""
+    return ENSEMBLE_BASE + members * (ENSEMBLE_MEMBER + 9 * (steps + 1)) + 3 * 8 * ENSEMBLE_KEPT_VALUES
+
+
+def ensemble_most_members(steps: int) -> int:
+    """The largest --ensemble that fits in ENSEMBLE_MEMORY at `steps` steps (0 if none does)."""
+    return max(0, (ENSEMBLE_MEMORY - ensemble_bytes(steps, 0)) // (ENSEMBLE_MEMBER + 9 * (steps + 1)))
 
 
 def ensemble_drift(energies: np.ndarray) -> dict:

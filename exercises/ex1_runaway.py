@@ -7,12 +7,17 @@ The evidence is the chapter's orbit (seed 0, dt 0.01) run 1x, 2x, 4x and 8x as l
 chapter's 2000 steps. A runaway error grows with the horizon; a bounded one does not.
 """
 
-import argparse
+import os
 import sys
-from pathlib import Path
 
 if __package__ in (None, ""):  # run as a file (python exercises/ex1_runaway.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from curriculum.common.interrupts import guard
+
+guard("exercises.ex1_runaway")  # from here on, Ctrl-C or SIGTERM ends in one line (exit 130 or 143)
+
+import argparse  # imports come below the guard on purpose: numpy takes a moment to load
 
 import numpy as np
 

@@ -10,13 +10,18 @@ for the orbit, the cosine for the spring), and the energy's worst relative excur
 shows by what factor each error shrank from one rung to the next.
 """
 
-import argparse
-import math
+import os
 import sys
-from pathlib import Path
 
 if __package__ in (None, ""):  # run as a file (python exercises/ex3_halve_dt.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from curriculum.common.interrupts import guard
+
+guard("exercises.ex3_halve_dt")  # from here on, Ctrl-C or SIGTERM ends in one line (exit 130 or 143)
+
+import argparse  # imports come below the guard on purpose: numpy takes a moment to load
+import math
 
 import numpy as np
 

@@ -10,13 +10,18 @@ Euler stays inside; the crossovers at three timesteps show how it scales, and tw
 estimates carry it to the chapter's dt = 0.01.
 """
 
-import argparse
-import math
+import os
 import sys
-from pathlib import Path
 
 if __package__ in (None, ""):  # run as a file (python exercises/ex4_long_run.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from curriculum.common.interrupts import guard
+
+guard("exercises.ex4_long_run")  # from here on, Ctrl-C or SIGTERM ends in one line (exit 130 or 143)
+
+import argparse  # imports come below the guard on purpose: numpy takes a moment to load
+import math
 
 import numpy as np
 

@@ -9,20 +9,27 @@ of dt 0.01 under each integrator. The program measures the blob's area after eve
 writes a recording of the blob moving (outputs/ch3.3-engine/ex5_blob.rrd; --no-rerun skips it).
 """
 
-import argparse
-import math
-import re
+import os
 import sys
-from pathlib import Path
 
 if __package__ in (None, ""):  # run as a file (python exercises/ex5_phase_blob.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from curriculum.common.interrupts import guard
+
+guard("exercises.ex5_phase_blob")  # from here on, Ctrl-C or SIGTERM ends in one line (exit 130 or 143)
+
+import argparse  # imports come below the guard on purpose: numpy takes a moment to load
+import math
+import re
+from pathlib import Path
 
 import numpy as np
 
 import engine
 import engine_recording
 from curriculum.common import write_atomic
+from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import folder_problem, one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, template, verdict
 
@@ -224,7 +231,7 @@ def rrd_problem(path: Path) -> str | None:
 
 @one_line_failures("exercises.ex5_phase_blob")
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="exercises.ex5_phase_blob", description=__doc__,
+    parser = OneLineParser(prog="exercises.ex5_phase_blob", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--no-rerun", dest="rerun", action="store_false", help="skip writing the recording")
     parser.add_argument("--rrd", type=Path, metavar="PATH", default=Path("outputs/ch3.3-engine/ex5_blob.rrd"),

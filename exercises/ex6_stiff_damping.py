@@ -10,18 +10,24 @@ The run measures which stay bounded, draws where each one does across dampings a
 and points at the line of MuJoCo's source that decides it for mj_step.
 """
 
-import argparse
-import math
-import re
+import os
 import sys
-from pathlib import Path
 
 if __package__ in (None, ""):  # run as a file (python exercises/ex6_stiff_damping.py): make the repo importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from curriculum.common.interrupts import guard
+
+guard("exercises.ex6_stiff_damping")  # from here on, Ctrl-C or SIGTERM ends in one line (exit 130 or 143)
+
+import argparse  # imports come below the guard on purpose: numpy takes a moment to load
+import math
+import re
 
 import numpy as np
 
 import engine
+from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, verdict
 from exercises.support import stability_map
@@ -106,7 +112,7 @@ def print_map(grid: dict, here: tuple[int, int]) -> None:
 
 @one_line_failures("exercises.ex6_stiff_damping")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="exercises.ex6_stiff_damping", description=__doc__,
+    parser = OneLineParser(prog="exercises.ex6_stiff_damping", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     prediction = ask(parser,
                      f"The chapter's spring (k = 4 N/m, m = 1 kg) with a damper of b = {DAMPING:g} N s/m, run for"
