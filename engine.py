@@ -68,7 +68,8 @@ DEFAULT_STEPS = 2000  # the chapter's run: 20 s of sim time at dt 0.01
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
 MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
 MAX_SEED = 2**64 - 1  # any seed numpy takes would do; past 4,300 digits Python cannot even print one
-MAX_DAMPING = 1e150  # past ~2.7e154, (b / 2m)^2 in the exact solution overflows to inf
+MAX_DAMPING = 1e6  # N s/m: dt b/m = 10,000 at the chapter's dt, far past docs/damping.md's map (100); much
+# further and the exact motion overflows: e^(b/2m t) at the recording's t = -1 us past 1.4e9, (b/2m)^2 past 2.7e154
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
 CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
 PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
@@ -531,6 +532,8 @@ def rounded(value):
         return {key: rounded(item) for key, item in value.items()}
     if isinstance(value, list):
         return [rounded(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None  # strict JSON has no NaN or inf: a figure that overflowed is null, as a diverged one is
     return round(value, 12) if isinstance(value, float) else value
 
 
@@ -653,6 +656,9 @@ def parse_args(argv=None) -> argparse.Namespace:
         parser.error(f"argument --out: {problem}")
     args.steps = args.steps or DEFAULT_STEPS
     steps = SMOKE_STEPS if args.smoke else args.steps
+    if not math.isfinite(args.dt * (steps + 1)):  # the times every truth and the recording are evaluated at
+        parser.error(f"argument --dt: {steps:,} steps of {args.dt:g} s is more time than a float can hold"
+                     f" ({sys.float_info.max:.3g} s): a smaller --dt or fewer --steps")
     if args.ensemble and ensemble_bytes(steps, args.ensemble) > ENSEMBLE_MEMORY:
         parser.error(f"argument --ensemble: {args.ensemble:,} members x {steps:,} steps needs about"
                      f" {ensemble_bytes(steps, args.ensemble) / 1e9:.1f} GB, over the {ENSEMBLE_MEMORY / 1e9:g} GB"
@@ -682,6 +688,7 @@ def rerun_problem() -> str | None:
 
 
 @one_line_failures("engine.py", memory_hint="fewer --steps need less")  # Ctrl-C 130, SIGTERM 143, OS errors: one line
+@np.errstate(all="ignore")  # past a blow-up, inf and NaN are carried on and the report names them: no warnings
 def main(argv=None) -> int:
     started = time.perf_counter()  # the wall-clock line counts everything main() does, rerun's import included
     args = parse_args(argv)

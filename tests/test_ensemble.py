@@ -152,8 +152,9 @@ def test_ensemble_does_not_judge_members_that_left_the_band_as_the_single_run_do
     assert "3 left semi_implicit's band" in out
 
 
-@pytest.mark.parametrize("members, why", [("0", "--ensemble must be 1 or more"), ("-3", "must be 1 or more"),
-                                          ("many", "is not a whole number"), ("10000000", "GB")])
+@pytest.mark.parametrize("members, why", [("0", "--ensemble must be from 1 to"), ("-3", "must be from 1 to"),
+                                          ("many", "is not a whole number"), ("100000", "GB"),
+                                          ("40000000", "must be from 1 to"), ("1e4300", "got 1e4300")])
 def test_bad_ensemble_gets_one_line_and_touches_nothing(members, why, tmp_path):
     out = tmp_path / "out"
     result = run_engine("--ensemble", members, "--out", out)

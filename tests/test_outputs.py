@@ -560,7 +560,7 @@ def test_out_of_memory_at_the_step_cap_is_one_line(tmp_path):
 
     result = engine("--steps", "10000000", "--integrator", "euler", "--no-rerun", "--out", tmp_path / "out",
                     preexec_fn=limit_memory)
-    assert_one_line(result, 1, "out of memory", "no file was written")
+    assert_one_line(result, 1, "not enough memory", "no file was written")
     assert listing(tmp_path) == []
 
 
