@@ -20,6 +20,7 @@ It acts only in the program being run (the module calling it is __main__): impor
 exercise or a test installs nothing. Loads nothing heavy: os, signal and sys are loaded already.
 """
 
+import atexit
 import os
 import signal
 import sys
@@ -29,7 +30,7 @@ WORDS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
 STANDARD_STREAMS = (0, 1, 2)
 
 # What a signal arriving now would have to say; one_line_failures' main() updates it as it finishes.
-_state = {"prog": None, "said": "no file was written"}
+_state = {"prog": None, "said": "no file was written", "code": None}
 
 
 def guard(prog: str) -> None:
@@ -42,6 +43,7 @@ def guard(prog: str) -> None:
         if signal.getsignal(number) is not signal.SIG_IGN:  # nohup and friends ignore on purpose
             signal.signal(number, _stop)
     sys.excepthook = _one_line_hook(sys.excepthook)
+    atexit.register(_exit_now)  # registered before any library's exit handler, so it runs after all of them
 
 
 def active() -> bool:
@@ -49,9 +51,30 @@ def active() -> bool:
     return _state["prog"] is not None
 
 
-def finished(said: str) -> None:
-    """main() has returned: from now on a signal says `said` (what was written) and that the run had finished."""
+def finished(said: str, code: int | None) -> None:
+    """main() has ended: from now on a signal says `said` (what was written) and that the run had finished.
+    `code` is what main() returned (None if it raised: Python then ends the process its own way)."""
     _state["said"] = f"after the run had finished: {said}"
+    _state["code"] = code
+
+
+def _exit_now() -> None:
+    """The last exit handler: end the process with main()'s exit code once every other handler has run.
+
+    What Python's own shutdown would do next takes ~0.3 s once Rerun is loaded (its threads and libraries
+    unload), and by then Python has reset the signal handlers: a Ctrl-C there would end the process
+    silently with -2 although the run had finished. Nothing is left to do by then: the run's files
+    were written with os.write and synced, and the streams are flushed here.
+    """
+    if _state["code"] is None:
+        return
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None:
+                stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(_state["code"])
 
 
 def _stop(number, frame):
@@ -97,7 +120,7 @@ def memory_problem(error: BaseException) -> str | None:
     "failed to map segment from shared object" or "Cannot allocate memory" (numpy then adds advice to
     reinstall, which would be wrong: nothing is broken).
     """
-    for link in _chain(error):
+    for link in chain(error):
         if isinstance(link, MemoryError):
             return "MemoryError"
         text = str(link)
@@ -112,7 +135,7 @@ def signal_in(error: BaseException) -> int | None:
 
     A Ctrl-C that lands inside a library's import can come out as that library's ImportError.
     """
-    for link in _chain(error):
+    for link in chain(error):
         if isinstance(link, KeyboardInterrupt):
             return signal.SIGINT
         if type(link).__name__ == "Terminated":  # outputs.Terminated, without importing outputs here
@@ -120,7 +143,7 @@ def signal_in(error: BaseException) -> int | None:
     return None
 
 
-def _chain(error: BaseException):
+def chain(error: BaseException):
     seen = set()
     while error is not None and id(error) not in seen:
         seen.add(id(error))

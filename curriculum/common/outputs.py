@@ -507,24 +507,32 @@ def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
                                 " nothing was run")
             _readable_paths()
             restore = _install_sigterm()
+            code = None
             try:
                 code = main(*args, **kwargs)
                 sys.stdout.flush()  # the report reaches its pipe or file now, where a failure is still ours to say
                 return code
             except OutputError as error:
-                return _stop(error.exit_code, f"{prog}: error: {error}")
+                code = _stop(error.exit_code, f"{prog}: error: {error}")
+                return code
             except OSError as error:
                 if not _printing_failed(error) or memory_problem(error) or signal_in(error):
-                    return _other(error, prog, memory_hint)
+                    code = _other(error, prog, memory_hint)
+                    return code
                 _silence_stdout()
-                return _stop(1, f"{prog}: error: could not print the report ({_says(error)}: stdout closed or full?); "
+                code = _stop(1, f"{prog}: error: could not print the report ({_says(error)}: stdout closed or full?); "
                                 f"{_what_was_written()}")
+                return code
+            except SystemExit as error:  # argparse's exit: bad input (2) or --help (0)
+                code = error.code if isinstance(error.code, int) else 1
+                raise
             except BaseException as error:
-                return _other(error, prog, memory_hint)
+                code = _other(error, prog, memory_hint)
+                return code
             finally:
                 restore()
                 if interrupts.active():
-                    interrupts.finished(_what_was_written())
+                    interrupts.finished(_what_was_written(), code)
 
         return guarded
 
@@ -540,9 +548,21 @@ def _other(error: BaseException, prog: str, memory_hint: str) -> int:
     if number == signal.SIGTERM:
         return _stop(143, f"terminated: {_what_was_written()}")
     if memory_problem(error):
+        loading = next((_library(link) for link in interrupts.chain(error) if isinstance(link, ImportError)), None)
+        if loading:  # a library loading late (numpy.random, rerun) under a memory limit: the run's size is not why
+            return _stop(1, f"{prog}: error: not enough memory to load {loading} ({memory_problem(error)}): raise the"
+                            f" memory limit (ulimit -v); {_what_was_written()}")
         return _stop(1, f"{prog}: error: not enough memory ({memory_problem(error)}): {memory_hint}, or raise the"
                         f" memory limit; {_what_was_written()}")
     raise error
+
+
+def _library(error: ImportError) -> str:
+    """The package an ImportError failed to load: numpy.random for .../site-packages/numpy/random/_common.so."""
+    where = (error.path or str(error)).replace(os.sep, "/")
+    if "-packages/" in where:
+        return ".".join(where.split("-packages/", 1)[1].split(":")[0].split("/")[:-1]) or str(error.name)
+    return str(error.name)
 
 
 def _readable_paths() -> None:
