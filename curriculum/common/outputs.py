@@ -543,6 +543,10 @@ def _other(error: BaseException, prog: str, memory_hint: str) -> int:
     """A signal (also one that surfaced as a library's ImportError) or the system refusing memory: one line.
     Anything else is a bug and keeps its traceback."""
     number = signal_in(error)
+    if number is not None:
+        # An object the signal caught half-built (a Rerun stream, say) may complain when it is collected: "Exception
+        # ignored in ... __del__" and a traceback. The process is ending on the signal; the one line below says all.
+        sys.unraisablehook = lambda unraisable: None
     if number == signal.SIGINT:
         return _stop(130, f"interrupted: {_what_was_written()}")
     if number == signal.SIGTERM:
