@@ -142,3 +142,10 @@ def test_recording_without_rerun_installed_is_one_line_not_a_traceback(tmp_path)
     assert len(result.stderr.splitlines()) == 1
     assert "pip install -e ." in result.stderr and "--no-rerun" in result.stderr
     assert not out.exists()
+
+
+def test_twenty_runs_started_together_into_missing_nested_folders_all_succeed(tmp_path):
+    """One trial of the full suite's ten (tests/test_outputs.py): 20 processes at one instant, 4 nested new folders."""
+    from test_outputs import concurrent_engine_runs
+
+    concurrent_engine_runs(tmp_path, trials=1)
