@@ -10,6 +10,7 @@ import contextlib
 import errno
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -884,3 +885,78 @@ def test_a_run_waiting_for_a_folder_that_its_maker_removes_makes_it_again(tmp_pa
         os.close(holder)
     assert writer.wait(timeout=60) == 0 and writer.stderr.read() == ""
     assert listing(out) == ["metrics.json"]
+
+
+# --- file attributes, memory limits ---
+
+
+def chattr(flag: str, path: Path) -> None:
+    if not shutil.which("chattr") or subprocess.run(["chattr", flag, str(path)], capture_output=True).returncode:
+        pytest.skip("chattr is missing, or this file system or user cannot set attributes")
+
+
+def test_an_immutable_metrics_json_is_refused_before_the_run_and_the_pair_stays_whole(tmp_path):
+    """Before, engine.rrd was replaced and metrics.json could not be: a new recording beside the old metrics."""
+    assert engine("--smoke", "--out", tmp_path).returncode == 0
+    before = {name: (tmp_path / name).read_bytes() for name in PAIR}
+    chattr("+i", tmp_path / "metrics.json")
+    try:
+        result = engine("--smoke", "--seed", "1", "--out", tmp_path)
+    finally:
+        subprocess.run(["chattr", "-i", str(tmp_path / "metrics.json")], check=True)
+    assert_one_line(result, 2, "--out", "metrics.json is immutable (chattr +i)")
+    assert_unchanged(tmp_path, before)
+
+
+def test_an_append_only_folder_is_refused_and_keeps_no_probe(tmp_path):
+    """In a chattr +a folder a file can be made but never removed: the check's probe used to stay behind."""
+    out = tmp_path / "out"
+    out.mkdir()
+    chattr("+a", out)
+    try:
+        result = engine("--smoke", "--out", out)
+        listed = listing(out)
+    finally:
+        subprocess.run(["chattr", "-a", str(out)], check=True)
+    assert_one_line(result, 2, "--out", "is append-only (chattr +a)")
+    assert listed == []
+
+
+def test_a_path_longer_than_the_system_takes_is_named_as_such_not_as_a_long_name(tmp_path):
+    out = tmp_path.joinpath(*["y" * 199] * 25)  # every name 199 characters, the whole path over 5,000
+    result = engine("--smoke", "--no-rerun", "--out", out)
+    assert_one_line(result, 2, "--out", "the path is", "though no name in it is too long")
+    assert listing(tmp_path) == []
+
+
+def with_memory_limit(megabytes: int):
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (megabytes * 2**20, megabytes * 2**20))
+
+    return limit
+
+
+@pytest.mark.parametrize("megabytes, flags", [(600, []), (1500, []), (145, ["--no-rerun"])])
+def test_a_memory_limit_is_not_enough_memory_never_reinstall(megabytes, flags, tmp_path):
+    """ulimit -v 600000 failed in numpy.random's lazy import with a traceback; 1.5 GB blamed the install."""
+    result = engine("--smoke", *flags, "--out", tmp_path / "out", preexec_fn=with_memory_limit(megabytes))
+    if result.returncode == 0:
+        pytest.skip(f"{megabytes} MB is enough on this machine")
+    assert "Traceback" not in result.stderr and "reinstall" not in result.stderr, result.stderr
+    if result.returncode == -signal.SIGABRT:  # a known limit, in Rerun's Rust code: see docs/DEVELOPING.md
+        assert re.match(r"memory allocation of \d+ bytes failed\n", result.stderr), result.stderr
+    else:
+        assert len(result.stderr.splitlines()) == 1 and "not enough memory" in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_memory_limit_too_small_for_numpy_is_one_line(tmp_path):
+    """Below what numpy needs to import at all, the guard's exit hook answers, before main() exists."""
+    result = engine("--smoke", "--no-rerun", "--out", tmp_path / "out", preexec_fn=with_memory_limit(40))
+    assert result.returncode == 1 and "reinstall" not in result.stderr and "Traceback" not in result.stderr
+    assert result.stderr in ("engine.py: error: not enough memory to start (failed to map segment); raise the memory"
+                             " limit (ulimit -v) or close other programs, and run it again\n",
+                             "engine.py: error: not enough memory to start (MemoryError); raise the memory"
+                             " limit (ulimit -v) or close other programs, and run it again\n")
