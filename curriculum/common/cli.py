@@ -96,7 +96,7 @@ def rerun_switched_off() -> str | None:
     return f"RERUN={value}" if value is not None and value.strip().lower() in ("0", "false", "off", "no") else None
 
 
-def progress_printer(label: str, total: int, stream=None):
+def progress_printer(label: str, total: int, stream=None, unit: str = "steps"):
     """A callback progress(done) that redraws one line, `  label  45% of 1,000,000 steps`, every 5% at most.
 
     On a terminal the line is redrawn in place; otherwise (a log file, a pipe) each report is its
@@ -111,7 +111,7 @@ def progress_printer(label: str, total: int, stream=None):
             return
         shown[0] = done / total
         percent = 100 * done // total  # rounded down: 100% only when the last step is done
-        text = f"  {label:<14}{percent:>4}% of {total:,} steps"
+        text = f"  {label:<14}{percent:>4}% of {total:,} {unit}"
         if in_place:
             print("\r" + text, end="\n" if done >= total else "", file=stream, flush=True)
         else:
