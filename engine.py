@@ -40,7 +40,7 @@ from curriculum.common.cli import (
     name_arg,
     positive_finite,
     progress_printer,
-    rerun_switched_off,
+    recording_wanted,
 )
 from curriculum.common.device import banner, wall_clock
 from curriculum.common.interrupts import memory_problem, signal_in
@@ -636,10 +636,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--no-rerun", dest="rerun", action="store_false",
                         help="skip the recording; rerun is then never imported")
     args = parser.parse_args(argv)
-    if args.rerun and rerun_switched_off():  # RERUN=off, Rerun's own switch (a course may set it on CI)
-        print(f"engine.py: note: {rerun_switched_off()} is set, so no recording is made (as with --no-rerun)",
-              file=sys.stderr)
-        args.rerun = False
+    args.rerun = recording_wanted("engine.py", args.rerun)  # not under RERUN=off, Rerun's own switch (a CI may set it)
     if args.system not in DAMPED_SYSTEMS and args.damping is not None:
         parser.error(f"argument --damping: only --system {' or '.join(DAMPED_SYSTEMS)} has a damper")
     if args.system in DAMPED_SYSTEMS and args.ensemble:

@@ -29,7 +29,7 @@ import numpy as np
 import engine
 import engine_recording
 from curriculum.common import write_atomic
-from curriculum.common.cli import OneLineParser
+from curriculum.common.cli import OneLineParser, recording_wanted
 from curriculum.common.outputs import folder_problem, one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, template, verdict
 
@@ -240,6 +240,7 @@ def main(argv=None) -> int:
                 " under each integrator. What happens to the disc's area under each one?",
                 EachOf(list(engine.INTEGRATORS), CHOICES), argv)
     args = parser.parsed
+    args.rerun = recording_wanted(parser.prog, args.rerun)  # not under RERUN=off, Rerun's own switch
     problem = rrd_problem(args.rrd) if args.rerun else None
     if problem:
         parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")

@@ -212,3 +212,12 @@ def test_every_exercise_answers_a_mistyped_flag_in_one_line(exercise):
     assert result.returncode == 2 and result.stdout == ""
     assert result.stderr == (f"exercises.{exercise}: error: unrecognized arguments: --predcit x; did you mean"
                              " --predict? (see --help)\n")
+
+
+def test_rerun_switched_off_makes_exercise_5_skip_its_recording_in_one_line(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "exercises.ex5_phase_blob", "--predict",
+                             "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(tmp_path / "blob.rrd")],
+                            cwd=REPO, capture_output=True, text=True, timeout=120, env={**os.environ, "RERUN": "OFF"})
+    assert result.returncode == 0 and list(tmp_path.iterdir()) == []
+    assert result.stderr == ("exercises.ex5_phase_blob: note: RERUN=OFF is set, so no recording is made"
+                             " (as with --no-rerun)\n")

@@ -96,6 +96,15 @@ def rerun_switched_off() -> str | None:
     return f"RERUN={value}" if value is not None and value.strip().lower() in ("0", "false", "off", "no") else None
 
 
+def recording_wanted(prog: str, asked: bool) -> bool:
+    """Whether to make the recording a run asked for: not where RERUN=off switches Rerun off, which
+    is then said in one line on stderr (as if --no-rerun had been given)."""
+    switched_off = rerun_switched_off()
+    if asked and switched_off:
+        print(f"{prog}: note: {switched_off} is set, so no recording is made (as with --no-rerun)", file=sys.stderr)
+    return asked and not switched_off
+
+
 def progress_printer(label: str, total: int, stream=None, unit: str = "steps"):
     """A callback progress(done) that redraws one line, `  label  45% of 1,000,000 steps`, every 5% at most.
 
