@@ -33,7 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
-from curriculum.common.cli import OneLineParser, int_in, name_arg, positive_finite, progress_printer
+from curriculum.common.cli import (
+    OneLineParser,
+    int_in,
+    name_arg,
+    positive_finite,
+    progress_printer,
+    recording_wanted,
+)
 from curriculum.common.device import banner, wall_clock
 from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
 from curriculum.common.report import cell, metrics_text, rounded, sim_time
@@ -45,6 +52,9 @@ DEFAULT_STEPS = 2000  # the chapter's run: 20 s of sim time at dt 0.01
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
 MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
 DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (300 is the stiff case)
+MAX_SEED = 2**64 - 1  # any seed numpy takes would do; past 4,300 digits Python cannot even print one
+MAX_DAMPING = 1e6  # N s/m: dt b/m = 10,000 at the chapter's dt, far past docs/damping.md's map (100); much
+# further and the exact motion overflows: e^(b/2m t) at the recording's t = -1 us past 1.4e9, (b/2m)^2 past 2.7e154
 METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 
 
@@ -196,16 +206,6 @@ def build_system(name: str, rng: np.random.Generator, damping: float | None = No
         raise ValueError(f"unknown system {name!r}; choose one of {', '.join([*SYSTEMS, *DAMPED_SYSTEMS])}")
     settings = {} if damping is None else {"damping": damping}
     return {"name": name, "returns": build.returns, **build(rng, **settings)}
-
-
-def build_ensemble(name: str, seeds) -> dict:
-    """One system, N bodies stepped as a batch: q0 and v0 become (N, 3), one row per seed.
-
-    Row i starts exactly where build_system(name, default_rng(seeds[i])) does; the force
-    and energy laws are the same for every member, so they are shared.
-    """
-    members = [build_system(name, np.random.default_rng(seed)) for seed in seeds]
-    return {**members[0], "q0": np.stack([s["q0"] for s in members]), "v0": np.stack([s["v0"] for s in members])}
 
 
 def times_for(t, q0):
@@ -566,7 +566,7 @@ def verdict_line(drifts: dict) -> str:
 
 def parse_args(argv=None) -> argparse.Namespace:
     parser = OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seed", type=int_in(0, None, "--seed"), default=0,
+    parser.add_argument("--seed", type=int_in(0, MAX_SEED, "--seed"), default=0,
                         help="seeds the one jittered initial condition per system (default 0)")
     parser.add_argument("--system", type=name_arg, choices=[*SYSTEMS, *DAMPED_SYSTEMS], default="orbit",
                         help="which system to integrate; damped_spring is the one that is not conservative"
@@ -574,7 +574,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--integrator", type=name_arg, choices=["all", *INTEGRATORS], default="all",
                         help="'all' runs the three-way comparison, which is the point; on damped_spring it"
                              " adds implicit, the damping taken at the new velocity (default all)")
-    parser.add_argument("--damping", type=positive_finite("--damping"), default=None,
+    parser.add_argument("--damping", type=positive_finite("--damping", MAX_DAMPING), default=None,
                         help=f"damped_spring's b in N s/m (default {DAMPING}); 300 at dt 0.01 is the stiff case")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
                         help="timestep in sim seconds, any positive number; raise it and every drift grows"
@@ -583,9 +583,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help=f"steps per integrator, 1 to {MAX_STEPS:,} (default {DEFAULT_STEPS:,})")
     parser.add_argument("--smoke", action="store_true",
                         help=f"fixed {SMOKE_STEPS}-step run for CI; two runs write identical {METRICS_FILE}")
-    parser.add_argument("--ensemble", type=int_in(1, None, "--ensemble"), default=None, metavar="N",
-                        help="also run seeds --seed .. --seed+N-1 together and report the spread, N up to what"
-                             " fits in 1 GB (about 44,000 orbits of 2,000 steps; default off)")
+    parser.add_argument("--ensemble", type=ensemble_size, default=None, metavar="N",
+                        help="also run seeds --seed .. --seed+N-1 together and report the spread, N as large as"
+                             " fits in 1 GB (a larger one is refused and told how many fit; default off)")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
     parser.add_argument("--out", type=folder_arg, default=Path("outputs/ch3.3-engine"),
@@ -595,16 +595,18 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--no-rerun", dest="rerun", action="store_false",
                         help="skip the recording; rerun is then never imported")
     args = parser.parse_args(argv)
+    args.rerun = recording_wanted("engine.py", args.rerun)  # not under RERUN=off, Rerun's own switch (a CI may set it)
     if args.system not in DAMPED_SYSTEMS and args.damping is not None:
         parser.error(f"argument --damping: only --system {' or '.join(DAMPED_SYSTEMS)} has a damper")
     if args.system in DAMPED_SYSTEMS and args.ensemble:
         parser.error("argument --ensemble: ensembles compare energy drift on the conservative systems"
                      f" ({', '.join(SYSTEMS)})")
     needs = getattr(INTEGRATORS.get(args.integrator), "needs", None)  # implicit needs the force's dforce_dv
-    offered = [name for name in [*SYSTEMS, *DAMPED_SYSTEMS] if needs in build_system(name, np.random.default_rng(0))]
-    if needs and args.system not in offered:
-        parser.error(f"argument --integrator: {args.integrator} needs a velocity-dependent force ({needs}), so"
-                     f" --system {' or '.join(offered)}")
+    if needs:
+        offered = [name for name in [*SYSTEMS, *DAMPED_SYSTEMS] if needs in build_system(name, np.random.default_rng())]
+        if args.system not in offered:
+            parser.error(f"argument --integrator: {args.integrator} needs a velocity-dependent force ({needs}),"
+                         f" so --system {' or '.join(offered)}")
     if args.smoke and args.steps is not None:
         parser.error(f"argument --steps: --smoke always runs {SMOKE_STEPS} steps (so two smoke runs can be diffed);"
                      " drop one of the two")
@@ -613,6 +615,9 @@ def parse_args(argv=None) -> argparse.Namespace:
         parser.error(f"argument --out: {problem}")
     args.steps = args.steps or DEFAULT_STEPS
     steps = SMOKE_STEPS if args.smoke else args.steps
+    if not math.isfinite(args.dt * (steps + 1)):  # the times every truth and the recording are evaluated at
+        parser.error(f"argument --dt: {steps:,} steps of {args.dt:g} s is more time than a float can hold"
+                     f" ({sys.float_info.max:.3g} s): a smaller --dt or fewer --steps")
     if args.ensemble:
         from engine_ensembles import ensemble_problem  # the extension loads only when its flag asks
 
@@ -625,7 +630,15 @@ def parse_args(argv=None) -> argparse.Namespace:
     return args
 
 
+def ensemble_size(text: str) -> int:
+    """--ensemble's type, called only when the flag is given: the extension that knows its limit loads then."""
+    from engine_ensembles import ensemble_most_members
+
+    return int_in(1, ensemble_most_members(1), "--ensemble")(text)
+
+
 @one_line_failures("engine.py", memory_hint="fewer --steps need less")  # Ctrl-C 130, SIGTERM 143, OS errors: one line
+@np.errstate(all="ignore")  # past a blow-up, inf and NaN are carried on and the report names them: no warnings
 def main(argv=None) -> int:
     started = time.perf_counter()  # the wall-clock line counts everything main() does, rerun's import included
     args = parse_args(argv)

@@ -1,6 +1,6 @@
 """Many seeds at once, for `python engine.py --ensemble N`: what is kept of each integrator, and the report.
 
-engine.build_ensemble() stacks N starting states into (N, 3) arrays and engine.simulate() steps them
+build_ensemble() stacks N starting states into (N, 3) arrays and engine.simulate() steps them
 together: the same arithmetic on every row, so each member is bit for bit its own single run, at a
 fraction of the cost per member. This module keeps what the report needs: every member's energy at
 every step, but positions only every few steps, and summarises them.
@@ -16,6 +16,8 @@ import engine
 
 ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
 ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
+ENSEMBLE_BASE = 200_000_000  # bytes a run holds before its members: Python, numpy, Rerun (~150 MB measured)
+ENSEMBLE_MEMBER = 700  # bytes per member whatever the steps (~500 measured at --steps 1; see ensemble_bytes)
 SHOWN_MEMBERS = 20  # member paths an ensemble's recording draws: enough to see the spread, few enough to open
 
 
@@ -25,18 +27,65 @@ def ensemble_every(steps: int, members: int) -> int:
 
 
 def ensemble_bytes(steps: int, members: int) -> int:
-    """Memory one integrator's ensemble holds at its peak: every energy (8 bytes) and whether it is
-    finite (1 byte), the kept positions and velocities, and the recording's error spread over them."""
-    return 9 * (steps + 1) * members + 3 * 8 * ENSEMBLE_KEPT_VALUES
+    """The most memory an --ensemble run holds at once, the whole process counted (measured peaks in
+    docs/ensembles.md stay under it): Python, numpy, Rerun and the recording (ENSEMBLE_BASE); for every
+    member its energy at every step (8 bytes) and whether it is finite (1 byte); what one member costs
+    whatever the steps (ENSEMBLE_MEMBER: its start, RK4's temporaries, its drifts, the seeds the ordering
+    fails for); and the kept positions and velocities with the recording's error spread over them."""
+    return ENSEMBLE_BASE + members * (ENSEMBLE_MEMBER + 9 * (steps + 1)) + 3 * 8 * ENSEMBLE_KEPT_VALUES
+
+
+def ensemble_most_members(steps: int) -> int:
+    """The largest --ensemble that fits in ENSEMBLE_MEMORY at `steps` steps (0 if none does)."""
+    return max(0, (ENSEMBLE_MEMORY - ensemble_bytes(steps, 0)) // (ENSEMBLE_MEMBER + 9 * (steps + 1)))
+
+
+def build_ensemble(name: str, seeds, progress=None) -> dict:
+    """One system, N bodies stepped as a batch: q0 and v0 become (N, 3), one row per seed.
+
+    Row i starts exactly where engine.build_system(name, default_rng(seeds[i])) does: each seed gets its own
+    generator, as a single run does, but only its one jitter is drawn per seed. The rest, the force
+    and energy laws included, is built once: with the jitter 0 (the start) and 1 (what it moves).
+    progress(done), if given, is called as the members' draws are made.
+    """
+    zero, one = OneDraw(0.0), OneDraw(1.0)
+    system, moved = engine.build_system(name, zero), engine.build_system(name, one)
+    jitter = np.empty(len(seeds))
+    for first in range(0, len(seeds), 100_000):
+        chunk = seeds[first:first + 100_000]
+        jitter[first:first + len(chunk)] = [np.random.default_rng(seed).uniform(*zero.bounds) for seed in chunk]
+        if progress:
+            progress(first + len(chunk))
+    starts = {}
+    for key in ("q0", "v0"):
+        starts[key] = np.tile(system[key], (len(seeds), 1))
+        jittered = np.flatnonzero(moved[key] != system[key])  # the component the jitter moves, if it is here
+        starts[key][:, jittered] = starts[key][:, jittered] + jitter[:, None]  # start + draw, as build_system adds it
+    return {**system, **starts}
+
+
+class OneDraw:
+    """Stands in for a generator in build_system, which draws each system's jitter with one
+    rng.uniform(low, high): returns `value` and notes (low, high)."""
+
+    def __init__(self, value: float):
+        self.value, self.bounds = value, None
+
+    def uniform(self, low: float, high: float) -> float:
+        self.bounds = (low, high)
+        return self.value
 
 
 def ensemble_problem(steps: int, members: int) -> str | None:
     """Why an ensemble of `members` x `steps` cannot run (it would not fit in ENSEMBLE_MEMORY), or None."""
-    needed = ensemble_bytes(steps, members)
-    if needed <= ENSEMBLE_MEMORY:
+    most = ensemble_most_members(steps)
+    if members <= most:
         return None
-    return (f"{members:,} members x {steps:,} steps needs about {memory_over_limit(needed)}"
-            " this run may use: fewer members or fewer --steps")
+    fits = f"at most {most:,} fit at {steps:,} steps" if most else f"not even one fits at {steps:,} steps"
+    if members > 10 * most + 1000:  # far past the limit (1e4300 members, say): no need to print the sum
+        return f"{members:.3g} members is far more than {ENSEMBLE_MEMORY / 1e9:g} GB holds ({fits})"
+    return (f"{members:,} members x {steps:,} steps needs about {memory_over_limit(ensemble_bytes(steps, members))}"
+            f" this run may use ({fits}): fewer members or fewer --steps")
 
 
 def ensemble_drift(energies: np.ndarray) -> dict:
@@ -162,7 +211,9 @@ def main(args, steps: int, started: float) -> int:
     the table above the ensemble's; the members' spread fills the "ensemble" block.
     """
     seeds = range(args.seed, args.seed + args.ensemble)  # PCG64 seeded per member is the only randomness
-    system = engine.build_ensemble(args.system, seeds)
+    # one generator per seed takes ~15 us: past 100,000 members that is worth a progress line
+    building = engine.progress_printer("seeds", len(seeds), unit="members") if len(seeds) >= 100_000 else None
+    system = build_ensemble(args.system, seeds, building)
     integrators = engine.integrators_for(system)
     names = list(integrators) if args.integrator == "all" else [args.integrator]
     every = max(math.ceil((steps + 1) / engine.MAX_POINTS_PER_SERIES), ensemble_every(steps, len(seeds)))

@@ -22,6 +22,7 @@ import re
 import numpy as np
 
 import engine
+import engine_ensembles
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, template, verdict
@@ -102,8 +103,8 @@ def answer(rows: list) -> str:
 def rk4_above_e0(seeds=SEEDS) -> tuple[int, int]:
     """Over many seeds (one batch), the chapter's run under RK4: (members whose energy is above E0 at some step,
     members that end below E0)."""
-    _, _, energies = engine.simulate(engine.rk4_step, engine.build_ensemble("orbit", seeds), DT, CHAPTER_STEPS,
-                                     every=CHAPTER_STEPS)
+    batch = engine_ensembles.build_ensemble("orbit", seeds)
+    _, _, energies = engine.simulate(engine.rk4_step, batch, DT, CHAPTER_STEPS, every=CHAPTER_STEPS)
     error = energies - energies[0]
     return int(np.count_nonzero((error > 0).any(axis=0))), int(np.count_nonzero(error[-1] < 0))
 

@@ -26,6 +26,7 @@ import numpy as np
 import engine
 import engine_recording
 from curriculum.common import write_atomic
+from curriculum.common.cli import OneLineParser, recording_wanted
 from curriculum.common.outputs import folder_problem, one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, template, verdict
 
@@ -220,7 +221,7 @@ def rrd_problem(path: Path) -> str | None:
 
 @one_line_failures("exercises.ex5_phase_blob")
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="exercises.ex5_phase_blob", description=__doc__,
+    parser = OneLineParser(prog="exercises.ex5_phase_blob", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--no-rerun", dest="rerun", action="store_false", help="skip writing the recording")
     parser.add_argument("--rrd", type=Path, metavar="PATH", default=Path("outputs/ch3.3-engine/ex5_blob.rrd"),
@@ -229,6 +230,7 @@ def main(argv=None) -> int:
                 " under each integrator. What happens to the disc's area under each one?",
                 EachOf(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv)
     args = parser.parsed
+    args.rerun = recording_wanted(parser.prog, args.rerun)  # not under RERUN=off, Rerun's own switch
     problem = rrd_problem(args.rrd) if args.rerun else None
     if problem:
         parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")

@@ -24,6 +24,7 @@ import numpy as np
 
 import engine
 import engine_damping
+from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import OneOf, ask, explain, verdict
 from exercises.support import stability_map
@@ -102,7 +103,7 @@ def print_map(grid: dict, here: tuple[int, int]) -> None:
 
 @one_line_failures("exercises.ex6_stiff_damping")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="exercises.ex6_stiff_damping", description=__doc__,
+    parser = OneLineParser(prog="exercises.ex6_stiff_damping", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     prediction = ask(parser,
                      f"The chapter's spring (k = 4 N/m, m = 1 kg) with a damper of b = {DAMPING:g} N s/m, run for"

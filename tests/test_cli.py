@@ -1,6 +1,7 @@
 """engine.py as a student runs it: the default run, bad input, long runs, Ctrl-C."""
 
 import json
+import os
 import re
 import shlex
 import signal
@@ -11,6 +12,7 @@ import time
 import pytest
 
 from conftest import ENGINE, REPO, run_engine
+from curriculum.common.exercise import exercises
 
 
 def test_default_run_prints_banner_first_and_wall_clock_last_and_no_noise(tmp_path):
@@ -43,6 +45,16 @@ BAD_INPUT = {
     "negative seed": (["--seed", "-1"], "--seed"),
     "unknown system": (["--system", "pendulum"], "--system"),
     "smoke with its own step count": (["--smoke", "--steps", "50"], "--steps"),
+    # numbers the flags read, past what Python turns into an int from text (4,300 digits) or a float holds
+    "seed 1e4300": (["--seed", "1e4300"], "--seed must be from 0 to 18,446,744,073,709,551,615, got 1e4300"),
+    "seed of 4,301 nines": (["--seed", "9" * 4301], "got 999999999999999999999999999999... (4,301 characters)"),
+    "seed of 5,000 digits": (["--seed", "1" * 5000], "--seed must be from 0 to"),
+    "ensemble 1e4300": (["--ensemble", "1e4300"], "--ensemble must be from 1 to"),
+    "ensemble of 40 million": (["--ensemble", "40000000", "--steps", "1"], "--ensemble must be from 1 to"),
+    "damping past the exact solution": (["--system", "damped_spring", "--damping", "2.7e154"], "up to 1e+06"),
+    "dt that overflows the sim time": (["--dt", "1e308"], "more time than a float can hold"),
+    "negative infinite dt": (["--dt", "-inf"], "--dt must be a positive, finite number, got -inf"),
+    "negative dt in e-notation": (["--dt", "-1e3"], "got -1e3"),
 }
 
 
@@ -54,8 +66,8 @@ def test_bad_flag_gets_one_line_exit_2_and_touches_nothing(case, tmp_path):
     (out / "metrics.json").write_text("previous\n")
     result = run_engine(*flags, "--out", out, cwd=tmp_path)
     assert result.returncode == 2
-    assert result.stdout == "" and len(result.stderr.splitlines()) == 1 and named in result.stderr
-    assert "Traceback" not in result.stderr
+    assert result.stdout == "" and len(result.stderr.splitlines()) == 1 and named in result.stderr, result.stderr
+    assert "Traceback" not in result.stderr and "expected one argument" not in result.stderr
     assert [p.name for p in out.iterdir()] == ["metrics.json"] and (out / "metrics.json").read_text() == "previous\n"
 
 
@@ -142,3 +154,70 @@ def test_recording_without_rerun_installed_is_one_line_not_a_traceback(tmp_path)
     assert len(result.stderr.splitlines()) == 1
     assert "pip install -e ." in result.stderr and "--no-rerun" in result.stderr
     assert not out.exists()
+
+
+def test_twenty_runs_started_together_into_missing_nested_folders_all_succeed(tmp_path):
+    """One trial of the full suite's ten (tests/test_outputs.py): 20 processes at one instant, 4 nested new folders."""
+    from test_outputs import concurrent_engine_runs
+
+    concurrent_engine_runs(tmp_path, trials=1)
+
+
+def test_rerun_switched_off_in_the_environment_is_no_rerun_with_one_line(tmp_path):
+    """RERUN=off is Rerun's own switch: every Rerun call then only warns, and no recording can be made."""
+    result = run_engine("--smoke", "--out", tmp_path, env={**os.environ, "RERUN": "off"})
+    assert result.returncode == 0
+    assert result.stderr == "engine.py: note: RERUN=off is set, so no recording is made (as with --no-rerun)\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["metrics.json"]
+
+
+@pytest.mark.parametrize("name, env, printed", [("r\u00e9sultats", {"PYTHONIOENCODING": "ascii"}, b"r\\xe9sultats"),
+                                                (os.fsdecode(b"bad\xffbyte"), {}, b"bad\\udcffbyte")])
+def test_a_path_stdout_cannot_encode_prints_escaped_after_the_files_are_written(name, env, printed, tmp_path):
+    out = tmp_path / name
+    result = subprocess.run([sys.executable, "engine.py", "--smoke", "--no-rerun", "--out", os.fsencode(out)],
+                            cwd=REPO, capture_output=True, env={**os.environ, **env}, timeout=120)
+    assert result.returncode == 0 and result.stderr == b"", result.stderr
+    assert (out / "metrics.json").exists()
+    assert b"metrics: " in result.stdout and printed in result.stdout  # escaped, not a UnicodeEncodeError
+
+
+def test_stdout_closed_from_the_start_is_exit_1_and_nothing_is_run(tmp_path):
+    """`python engine.py >&-`: the report would vanish and exit 0 would tell a script that all is well."""
+    result = subprocess.run([sys.executable, "engine.py", "--smoke", "--no-rerun", "--out", str(tmp_path / "o")],
+                            cwd=REPO, stdout=None, stderr=subprocess.PIPE, text=True, timeout=120,
+                            pass_fds=(), preexec_fn=lambda: os.close(1))
+    assert result.returncode == 1
+    assert result.stderr == ("engine.py: error: standard output is closed, so the report could not be printed;"
+                             " nothing was run\n")
+    assert not (tmp_path / "o").exists()
+
+
+def test_stderr_closed_still_gives_the_exit_code_and_no_file_takes_its_place(tmp_path):
+    """With fd 2 closed, the next file opened would get number 2 and receive every warning: the guard fills it."""
+    result = subprocess.run([sys.executable, "engine.py", "--smoke", "--out", str(tmp_path)], cwd=REPO,
+                            stdout=subprocess.PIPE, stderr=None, text=True, timeout=120,
+                            preexec_fn=lambda: os.close(2))
+    assert result.returncode == 0 and "metrics:" in result.stdout
+    json.loads((tmp_path / "metrics.json").read_text())
+    bad = subprocess.run([sys.executable, "engine.py", "--dt", "0", "--out", str(tmp_path)], cwd=REPO,
+                         capture_output=True, timeout=60, preexec_fn=lambda: os.close(2))
+    assert bad.returncode == 2
+
+
+@pytest.mark.parametrize("exercise", [name for _, name, kind in exercises(REPO / "exercises") if kind == "predict"])
+def test_every_exercise_answers_a_mistyped_flag_in_one_line(exercise):
+    result = subprocess.run([sys.executable, "-m", f"exercises.{exercise}", "--predcit", "x"], cwd=REPO,
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr == (f"exercises.{exercise}: error: unrecognized arguments: --predcit x; did you mean"
+                             " --predict? (see --help)\n")
+
+
+def test_rerun_switched_off_makes_exercise_5_skip_its_recording_in_one_line(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "exercises.ex5_phase_blob", "--predict",
+                             "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(tmp_path / "blob.rrd")],
+                            cwd=REPO, capture_output=True, text=True, timeout=120, env={**os.environ, "RERUN": "OFF"})
+    assert result.returncode == 0 and list(tmp_path.iterdir()) == []
+    assert result.stderr == ("exercises.ex5_phase_blob: note: RERUN=OFF is set, so no recording is made"
+                             " (as with --no-rerun)\n")

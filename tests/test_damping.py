@@ -19,6 +19,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
 import engine  # noqa: E402
 import engine_damping  # noqa: E402
+import engine_ensembles  # noqa: E402
 from conftest import REPO, run_engine  # noqa: E402
 from exercises import ex6_stiff_damping  # noqa: E402
 from exercises.support import stability_map  # noqa: E402
@@ -44,7 +45,7 @@ def test_damped_spring_keeps_the_batched_contract():
     assert system["dissipation"](q, v).shape == (2,) and system["force"](q[0], v[0]).shape == (3,)
     assert np.array_equal(system["force"](q, v)[1], system["force"](q[1], v[1]))
     # a batch: every row is its own run, and its own exact solution
-    ensemble = engine.build_ensemble("damped_spring", [0, 3])
+    ensemble = engine_ensembles.build_ensemble("damped_spring", [0, 3])
     positions, _, _ = engine.simulate(engine.integrators_for(ensemble)["implicit"], ensemble, 0.01, 50)
     alone = engine.simulate(engine.integrators_for(damped(seed=3))["implicit"], damped(seed=3), 0.01, 50)[0]
     assert np.array_equal(positions[:, 1], alone)

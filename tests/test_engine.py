@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import engine
+import engine_ensembles
 from conftest import REPO
 
 GOLDEN = REPO / "tests" / "golden"
@@ -193,7 +194,7 @@ def test_a_system_that_breaks_the_contract_gets_a_sentence():
 def test_a_batch_steps_each_body_as_if_alone(system):
     """The same code steps one body (3,) or a batch (N, 3): each row is its own single run, bit for bit."""
     seeds = [0, 5, 7]
-    ensemble = engine.build_ensemble(system, seeds)
+    ensemble = engine_ensembles.build_ensemble(system, seeds)
     for integrator, step in engine.integrators_for(ensemble).items():
         positions, velocities, energies = engine.simulate(step, ensemble, 0.02, 300)
         assert positions.shape == (301, 3, 3) and energies.shape == (301, 3)

@@ -294,16 +294,21 @@ def test_answers_md_holds_the_graded_answer():
 
 @pytest.mark.parametrize("signal_name, code", [("SIGINT", 130), ("SIGTERM", 143)])
 def test_a_signal_mid_run_ends_in_one_line_and_writes_nothing(signal_name, code, tmp_path):
-    """Ctrl-C or SIGTERM while it measures: one line, exit 130 or 143, no recording, no traceback."""
-    import signal
-
-    child = subprocess.Popen([sys.executable, "-m", "exercises.ex7_shadow_energy", "--predict", RIGHT], cwd=tmp_path,
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                             env={"PYTHONPATH": str(REPO), "PATH": ""})
-    time.sleep(1.0)  # imports done, measuring (a whole run takes about 2 s here)
-    child.send_signal(getattr(signal, signal_name))
-    _, err = child.communicate(timeout=60)
-    assert child.returncode == code, err
+    """Ctrl-C or SIGTERM while it measures: one line, exit 130 or 143, no recording, no traceback. The signal
+    comes from inside the exercise's first engine.simulate call, so it lands mid-run on any machine's speed."""
+    signals_itself = (
+        "import os, runpy, signal, sys, engine\n"
+        "real = engine.simulate\n"
+        "def simulate(*args, **kwargs):\n"
+        f"    os.kill(os.getpid(), signal.{signal_name})\n"
+        "    return real(*args, **kwargs)\n"
+        "engine.simulate = simulate\n"
+        f"sys.argv = ['ex7', '--predict', {RIGHT!r}]\n"
+        "runpy.run_module('exercises.ex7_shadow_energy', run_name='__main__', alter_sys=True)\n")
+    result = subprocess.run([sys.executable, "-c", signals_itself], cwd=tmp_path, capture_output=True, text=True,
+                            env={"PYTHONPATH": str(REPO), "PATH": ""}, timeout=60)
+    assert result.returncode == code, result.stderr
+    err = result.stderr
     assert len(err.splitlines()) == 1 and "no file was written" in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
 

@@ -10,12 +10,14 @@ import contextlib
 import errno
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
 import sys
 import tempfile
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -561,7 +563,7 @@ def test_out_of_memory_at_the_step_cap_is_one_line(tmp_path):
 
     result = engine("--steps", "10000000", "--integrator", "euler", "--no-rerun", "--out", tmp_path / "out",
                     preexec_fn=limit_memory)
-    assert_one_line(result, 1, "out of memory", "no file was written")
+    assert_one_line(result, 1, "not enough memory", "no file was written")
     assert listing(tmp_path) == []
 
 
@@ -782,3 +784,180 @@ def test_a_no_rerun_run_beside_an_older_recording_says_so_on_stdout(tmp_path, ca
     notes = [line for line in out.splitlines() if "engine.rrd" in line]
     assert notes == [f"note: {tmp_path / 'engine.rrd'} is from an earlier run (this one wrote no recording)"]
     assert recording_id(tmp_path / "engine.rrd") != strict_json(tmp_path / "metrics.json")["run_id"]
+
+
+# --- runs started together into folders that do not exist yet ---
+
+
+def start_together(commands: list, folder: Path) -> list:
+    """Start every command at one instant: each waits in a shell for a go-file, then becomes the command."""
+    go = folder / "go"
+    runs = [subprocess.Popen(["sh", "-c", 'until [ -e "$0" ]; do sleep 0.005; done; exec "$@"', str(go), *command],
+                             cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            for command in commands]
+    time.sleep(0.5)  # every shell is waiting
+    go.touch()
+    return [(run.wait(timeout=300), run.stderr.read()) for run in runs]
+
+
+def nested(trial: Path, seed: int) -> Path:
+    """Four folders, each inside the one before: the runs race to create the same parents."""
+    return trial.joinpath(*["x", "sub", "deeper", "deepest"][: seed % 4 + 1])
+
+
+def assert_each_folder_holds_one_of_its_runs(trial: Path, seeds) -> None:
+    for depth in range(4):
+        out = nested(trial, depth)
+        expected = ["metrics.json"] + (["sub", "deeper", "deepest"][depth:depth + 1])
+        assert listing(out) == sorted(expected), f"a probe, a temporary file or a stray folder in {out}"
+        seed = json.loads((out / "metrics.json").read_text())["seed"]
+        assert seed in seeds and seed % 4 == depth
+
+
+def concurrent_engine_runs(tmp_path: Path, trials: int, runs: int = 20) -> None:
+    (tmp_path / "gates").mkdir()
+    for trial in range(trials):
+        folder = tmp_path / f"trial{trial}"
+        if trial % 2:
+            (folder / "x").mkdir(parents=True)  # half the trials: the outermost folder exists already
+        gate = tmp_path / "gates" / str(trial)
+        gate.mkdir()
+        seeds = range(trial * runs, (trial + 1) * runs)
+        results = start_together([[sys.executable, "engine.py", "--smoke", "--no-rerun", "--seed", str(seed),
+                                   "--out", str(nested(folder, seed))] for seed in seeds], gate)
+        assert results == [(0, "")] * runs, [result for result in results if result != (0, "")][:3]
+        assert_each_folder_holds_one_of_its_runs(folder, seeds)
+
+
+def test_twenty_runs_started_together_into_missing_nested_folders_all_succeed_many_times(tmp_path):
+    """The issue's case, ten times: 20 real `python engine.py` processes at one instant, into four nested
+    folders that do not exist yet (in half the trials the outermost does): 200 runs, every one must succeed."""
+    concurrent_engine_runs(tmp_path, trials=10)
+
+
+CHECK_THEN_WRITE = textwrap.dedent("""
+    import os, sys, time
+    from pathlib import Path
+    from curriculum.common.outputs import OutputError, folder_problem, write_run
+    base, me, rounds = Path(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+    while not (base / "go").exists():
+        time.sleep(0.001)
+    lost = []
+    for i in range(rounds):
+        out = base / str(i) / "a" / ("b" if me % 2 else "")
+        problem = folder_problem(out, ["engine.rrd", "metrics.json"])
+        try:
+            if problem is None:
+                write_run(out, {"engine.rrd": b"r", "metrics.json": f"{me}"})
+        except OutputError as error:
+            problem = str(error)
+        if problem:
+            lost.append(f"{i}: {problem}")
+    print(len(lost), *lost[:3], sep="\\n")
+""")
+
+
+def test_check_then_write_in_eight_processes_loses_no_run(tmp_path):
+    """The issue's replay: 8 processes each check, then write, 300 fresh nested folders at once (2,400 runs).
+    Before, the check made the folders and removed them again under the others: 99 of 2,400 lost."""
+    writers = [subprocess.Popen([sys.executable, "-c", CHECK_THEN_WRITE, str(tmp_path), str(me), "300"], cwd=REPO,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for me in range(8)]
+    time.sleep(0.5)
+    (tmp_path / "go").touch()
+    for writer in writers:
+        stdout, stderr = writer.communicate(timeout=300)
+        assert writer.returncode == 0 and stderr == "" and stdout.splitlines()[0] == "0", stdout
+
+
+def test_a_run_waiting_for_a_folder_that_its_maker_removes_makes_it_again(tmp_path):
+    """A run whose write failed removes the folders it made, under their lock; a run that was waiting for
+    that lock finds the folder gone (still open, but unlinked) and makes it anew instead of failing."""
+    out = tmp_path / "new"
+    out.mkdir()
+    holder = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
+    fcntl = pytest.importorskip("fcntl")
+    fcntl.flock(holder, fcntl.LOCK_EX)  # as the failing run holds it
+    code = "import sys; from curriculum.common.outputs import write_run; write_run(sys.argv[1], {'metrics.json': '{}'})"
+    writer = subprocess.Popen([sys.executable, "-c", code, str(out)], cwd=REPO, stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(1.0)  # the writer has opened the folder and waits for the lock
+        os.rmdir(out)  # the failing run removes the folder it had made
+    finally:
+        os.close(holder)
+    assert writer.wait(timeout=60) == 0 and writer.stderr.read() == ""
+    assert listing(out) == ["metrics.json"]
+
+
+# --- file attributes, memory limits ---
+
+
+def chattr(flag: str, path: Path) -> None:
+    if not shutil.which("chattr") or subprocess.run(["chattr", flag, str(path)], capture_output=True).returncode:
+        pytest.skip("chattr is missing, or this file system or user cannot set attributes")
+
+
+def test_an_immutable_metrics_json_is_refused_before_the_run_and_the_pair_stays_whole(tmp_path):
+    """Before, engine.rrd was replaced and metrics.json could not be: a new recording beside the old metrics."""
+    assert engine("--smoke", "--out", tmp_path).returncode == 0
+    before = {name: (tmp_path / name).read_bytes() for name in PAIR}
+    chattr("+i", tmp_path / "metrics.json")
+    try:
+        result = engine("--smoke", "--seed", "1", "--out", tmp_path)
+    finally:
+        subprocess.run(["chattr", "-i", str(tmp_path / "metrics.json")], check=True)
+    assert_one_line(result, 2, "--out", "metrics.json is immutable (chattr +i)")
+    assert_unchanged(tmp_path, before)
+
+
+def test_an_append_only_folder_is_refused_and_keeps_no_probe(tmp_path):
+    """In a chattr +a folder a file can be made but never removed: the check's probe used to stay behind."""
+    out = tmp_path / "out"
+    out.mkdir()
+    chattr("+a", out)
+    try:
+        result = engine("--smoke", "--out", out)
+        listed = listing(out)
+    finally:
+        subprocess.run(["chattr", "-a", str(out)], check=True)
+    assert_one_line(result, 2, "--out", "is append-only (chattr +a)")
+    assert listed == []
+
+
+def test_a_path_longer_than_the_system_takes_is_named_as_such_not_as_a_long_name(tmp_path):
+    out = tmp_path.joinpath(*["y" * 199] * 25)  # every name 199 characters, the whole path over 5,000
+    result = engine("--smoke", "--no-rerun", "--out", out)
+    assert_one_line(result, 2, "--out", "the path is", "though no name in it is too long")
+    assert listing(tmp_path) == []
+
+
+def with_memory_limit(megabytes: int):
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (megabytes * 2**20, megabytes * 2**20))
+
+    return limit
+
+
+@pytest.mark.parametrize("megabytes, flags", [(600, []), (1500, []), (145, ["--no-rerun"])])
+def test_a_memory_limit_is_not_enough_memory_never_reinstall(megabytes, flags, tmp_path):
+    """ulimit -v 600000 failed in numpy.random's lazy import with a traceback; 1.5 GB blamed the install."""
+    result = engine("--smoke", *flags, "--out", tmp_path / "out", preexec_fn=with_memory_limit(megabytes))
+    if result.returncode == 0:
+        pytest.skip(f"{megabytes} MB is enough on this machine")
+    assert "Traceback" not in result.stderr and "reinstall" not in result.stderr, result.stderr
+    if result.returncode == -signal.SIGABRT:  # a known limit, in Rerun's Rust code: see docs/DEVELOPING.md
+        assert re.match(r"memory allocation of \d+ bytes failed\n", result.stderr), result.stderr
+    else:
+        assert len(result.stderr.splitlines()) == 1 and "not enough memory" in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_memory_limit_too_small_for_numpy_is_one_line(tmp_path):
+    """Below what numpy needs to import at all, the guard's exit hook answers, before main() exists."""
+    result = engine("--smoke", "--no-rerun", "--out", tmp_path / "out", preexec_fn=with_memory_limit(40))
+    assert result.returncode == 1 and "reinstall" not in result.stderr and "Traceback" not in result.stderr
+    assert result.stderr in ("engine.py: error: not enough memory to start (failed to map segment); raise the memory"
+                             " limit (ulimit -v) or close other programs, and run it again\n",
+                             "engine.py: error: not enough memory to start (MemoryError); raise the memory"
+                             " limit (ulimit -v) or close other programs, and run it again\n")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import engine
+import engine_ensembles
 import engine_recording
 
 rerun_chunk = pytest.importorskip("rerun.chunk", reason="rerun-sdk is a core dependency; install the project")
@@ -119,7 +120,7 @@ def test_each_body_travels_its_run_step_by_step_along_its_whole_path(recorded, s
 def test_a_batchs_exact_motion_is_each_members_own():
     """The exact motions themselves are tested against their force laws in test_closed_form.py."""
     times = np.linspace(0.0, 300.0, 13)
-    ensemble = engine.build_ensemble("orbit", [0, 1, 2])
+    ensemble = engine_ensembles.build_ensemble("orbit", [0, 1, 2])
     batched = ensemble["exact"](ensemble["q0"], ensemble["v0"], times)
     for i in range(3):
         member = engine.build_system("orbit", np.random.default_rng(i))

@@ -23,6 +23,7 @@ HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE.parent), str(HERE)]
 
 import engine  # noqa: E402
+import engine_ensembles  # noqa: E402
 from bench import best_seconds  # noqa: E402  (one timing helper for every bench)
 
 MEMBERS, STEPS, DT = 10_000, 2_000, 0.01
@@ -32,7 +33,7 @@ SIZES = [1, 10, 100, 1_000, 10_000, 100_000]
 
 def ensemble_ns(system_name, integrator, members, steps, repeats=3):
     """ns per member-step of simulate() on an ensemble, energy every step as the engine does it."""
-    system = engine.build_ensemble(system_name, range(members))
+    system = engine_ensembles.build_ensemble(system_name, range(members))
     # keep only the first and last states, as --ensemble keeps few: what is timed is the stepping
     seconds = best_seconds(lambda: engine.simulate(engine.INTEGRATORS[integrator], system, DT, steps, every=steps),
                            repeats)
@@ -52,7 +53,7 @@ def rollout_ns(system_name, members, steps):
 
     from mujoco_rollout import initial_states, rollout_model
 
-    system = engine.build_ensemble(system_name, range(members))
+    system = engine_ensembles.build_ensemble(system_name, range(members))
     model, data, _ = rollout_model(system_name, "semi_implicit", DT)
     start = initial_states(model, data, system["q0"], system["v0"])
     out = np.empty((members, steps, start.shape[1]))

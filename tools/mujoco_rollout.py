@@ -18,6 +18,7 @@ from mujoco import rollout
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]  # engine, and the MuJoCo models the parity tests use
 import engine  # noqa: E402
+import engine_ensembles  # noqa: E402
 from mujoco_models import xml_for  # noqa: E402
 
 FULLPHYSICS = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
@@ -59,7 +60,7 @@ def rollout_positions(system_name: str, integrator: str, q0, v0, dt: float, step
 if __name__ == "__main__":
     seeds = np.arange(1000)
     for name in ("spring", "freefall"):
-        system = engine.build_ensemble(name, seeds)
+        system = engine_ensembles.build_ensemble(name, seeds)
         for ours in ("semi_implicit", "rk4"):
             mine, mine_v, _ = engine.simulate(engine.INTEGRATORS[ours], system, 0.01, 2000)
             theirs, theirs_v = rollout_positions(name, ours, system["q0"], system["v0"], 0.01, 2000)

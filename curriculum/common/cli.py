@@ -9,6 +9,7 @@ import argparse
 import decimal
 import difflib
 import math
+import re
 import sys
 
 
@@ -16,7 +17,14 @@ class OneLineParser(argparse.ArgumentParser):
     """An ArgumentParser whose errors are one line: `prog: error: what is wrong (see --help)`.
 
     A mistyped flag is named with the flag it most looks like: `--sytem orbit` gets "did you mean --system?".
+    A value that starts with '-' and reads as a number (`--dt -inf`, `--dt -1e3`) reaches the flag's
+    type, which says what is wrong with it, instead of argparse's "expected one argument".
     """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # argparse takes '-1' and '-.5' for numbers and everything else with a '-' for a flag
+        self._negative_number_matcher = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
 
     def error(self, message):
         hint = ""
@@ -33,41 +41,71 @@ def name_arg(text: str) -> str:
     return text.strip().lower().replace("-", "_")
 
 
-def positive_finite(what: str):
-    """Argument type: a float that is finite and > 0, e.g. a timestep."""
+def positive_finite(what: str, high: float | None = None):
+    """Argument type: a float that is finite and > 0 (and at most `high`, if given), e.g. a timestep."""
 
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+            raise argparse.ArgumentTypeError(f"{as_typed(text)!r} is not a number") from None
         if not (math.isfinite(value) and value > 0.0):
-            raise argparse.ArgumentTypeError(f"{what} must be a positive, finite number, got {text}")
+            raise argparse.ArgumentTypeError(f"{what} must be a positive, finite number, got {as_typed(text)}")
+        if high is not None and value > high:
+            raise argparse.ArgumentTypeError(f"{what} must be a positive number up to {high:g}, got {as_typed(text)}")
         return value
 
     return parse
 
 
 def int_in(low: int, high: int | None, what: str):
-    """Argument type: a whole number from `low` to `high` (no upper bound if high is None).
+    """Argument type: a whole number from `low` to `high` (no upper bound if high is None: then up to 4,300 digits,
+    the most Python turns into text).
 
-    Written as people write them: `1000000`, `1,000,000`, `1_000_000`, `1e6`, `2.5e3`.
+    Written as people write them: `1000000`, `1,000,000`, `1_000_000`, `1e6`, `2.5e3`. However many
+    digits it has (Python refuses to make an int of more than 4,300 from text), it is compared with the
+    bounds first, so `1e4300` and a 5,000-digit number are "must be from ... to ...", not a traceback.
     """
 
     def parse(text: str) -> int:
         value = whole_number(text)
         if value is None:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-        if value < low or (high is not None and value > high):
-            bound = f"from {low:,} to {high:,}" if high is not None else f"{low:,} or more"
-            got = f"{value:,}" if len(str(abs(value))) <= 24 else text.strip()  # 1e999999 as typed
+            raise argparse.ArgumentTypeError(f"{as_typed(text)!r} is not a whole number") from None
+        top = high if high is not None else 10**4300 - 1
+        if value < low or value > top:
+            got = f"{int(value):,}" if value.adjusted() < 24 else as_typed(text)  # 1e999999 as typed
+            bound = f"from {low:,} to {high:,}" if high is not None else f"{low:,} or more, with at most 4,300 digits"
             raise argparse.ArgumentTypeError(f"{what} must be {bound}, got {got}")
-        return value
+        return int(value)
 
     return parse
 
 
-def progress_printer(label: str, total: int, stream=None):
+def as_typed(text: str, most: int = 40) -> str:
+    """`text` as the user typed it, cut to `most` characters with its length said: a 5,000-digit number fits a line."""
+    text = text.strip()
+    return text if len(text) <= most else f"{text[:most - 10]}... ({len(text):,} characters)"
+
+
+def rerun_switched_off() -> str | None:
+    """'RERUN=off' if Rerun's own environment switch turns its logging off (then every Rerun call only
+    warns and no recording can be made), else None. Rerun reads 0, false and off, in any case."""
+    import os
+
+    value = os.environ.get("RERUN")
+    return f"RERUN={value}" if value is not None and value.strip().lower() in ("0", "false", "off", "no") else None
+
+
+def recording_wanted(prog: str, asked: bool) -> bool:
+    """Whether to make the recording a run asked for: not where RERUN=off switches Rerun off, which
+    is then said in one line on stderr (as if --no-rerun had been given)."""
+    switched_off = rerun_switched_off()
+    if asked and switched_off:
+        print(f"{prog}: note: {switched_off} is set, so no recording is made (as with --no-rerun)", file=sys.stderr)
+    return asked and not switched_off
+
+
+def progress_printer(label: str, total: int, stream=None, unit: str = "steps"):
     """A callback progress(done) that redraws one line, `  label  45% of 1,000,000 steps`, every 5% at most.
 
     On a terminal the line is redrawn in place; otherwise (a log file, a pipe) each report is its
@@ -82,7 +120,7 @@ def progress_printer(label: str, total: int, stream=None):
             return
         shown[0] = done / total
         percent = 100 * done // total  # rounded down: 100% only when the last step is done
-        text = f"  {label:<14}{percent:>4}% of {total:,} steps"
+        text = f"  {label:<14}{percent:>4}% of {total:,} {unit}"
         if in_place:
             print("\r" + text, end="\n" if done >= total else "", file=stream, flush=True)
         else:
@@ -91,17 +129,18 @@ def progress_printer(label: str, total: int, stream=None):
     return show
 
 
-def whole_number(text: str) -> int | None:
-    """The whole number `text` spells (`10,000`, `10_000`, `1e4`, `2.5e3`), or None if it spells none."""
+def whole_number(text: str) -> decimal.Decimal | None:
+    """The whole number `text` spells (`10,000`, `10_000`, `1e4`, `2.5e3`) as an exact Decimal, or None.
+
+    A Decimal, not an int, so a number of any size can be compared with a flag's bounds before it
+    becomes an int (int() of a 5,000-digit text raises ValueError)."""
     plain = text.replace("_", "").replace(",", "").strip()
     try:
-        return int(plain)
-    except ValueError:
-        pass
-    try:
         number = decimal.Decimal(plain)
-    except decimal.InvalidOperation:
+    except (decimal.InvalidOperation, ValueError):
         return None
-    if not number.is_finite() or number != number.to_integral_value() or number.adjusted() > 4300:
-        return None  # past 4,300 digits Python will not make it an int (and no flag wants one)
-    return int(number)
+    if not number.is_finite():
+        return None
+    if number.as_tuple().exponent < 0 and number != number.to_integral_value(rounding=decimal.ROUND_DOWN):
+        return None  # 1.5, 1e-3 (while 2.5e3 and 1.0e4 are whole)
+    return number

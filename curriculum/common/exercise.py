@@ -6,7 +6,8 @@
 
     start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
 
-- `start(__file__)` installs the signal guard (curriculum.common.interrupts) before anything heavy loads,
+- `start(__file__)` installs the signal guard (curriculum.common.interrupts) before anything heavy loads
+  (only in the exercise being run: a test that imports one installs nothing),
   and, when the exercise is run as a file (`python exercises/ex1_band.py`, or from inside exercises/),
   puts the repo on the import path so `import engine` and `import exercises.support...` work as they do
   under `python -m exercises.ex1_band`. It loads nothing heavy.
@@ -19,7 +20,7 @@ import re
 import sys
 from pathlib import Path
 
-from curriculum.common.interrupts import guard
+from curriculum.common.interrupts import install
 
 EXERCISE_FILE = re.compile(r"ex(\d+)_\w+\.py")
 
@@ -27,7 +28,8 @@ EXERCISE_FILE = re.compile(r"ex(\d+)_\w+\.py")
 def start(file: str) -> None:
     """The first line of an exercise: the signal guard, then the repo importable however it was started."""
     path = Path(file).resolve()
-    guard(f"exercises.{path.stem}")
+    if sys._getframe(1).f_globals.get("__name__") == "__main__":  # the exercise being run, not one imported
+        install(f"exercises.{path.stem}")
     repo = str(path.parents[1])
     if repo not in sys.path:
         sys.path.insert(0, repo)

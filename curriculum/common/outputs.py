@@ -26,6 +26,9 @@ import sys
 import threading
 from pathlib import Path
 
+from curriculum.common import interrupts
+from curriculum.common.interrupts import memory_problem, signal_in
+
 try:
     import fcntl
 except ImportError:  # Windows: no flock; each file is still replaced atomically, by path
@@ -97,7 +100,7 @@ def _make_folders(path: Path, created: list) -> None:
         try:
             os.mkdir(folder)
         except FileExistsError:
-            continue
+            continue  # (FileNotFoundError: the folder above was removed meanwhile; write_run starts again)
         created.append(folder)
 
 
@@ -105,8 +108,10 @@ def _describe(out: Path, error: OSError) -> str:
     """Why `out` cannot be a folder for our files, from the error the OS gave."""
     if error.errno == errno.ENAMETOOLONG:
         longest = max(out.parts, key=len)
-        return (f"{out} cannot be created: a name in it is {len(longest)} characters, longer than the file "
-                f"system allows ({_name_max(out)})")
+        if len(os.fsencode(longest)) > _name_max(out):
+            return (f"{out} cannot be created: a name in it is {len(longest)} characters, longer than the file "
+                    f"system allows ({_name_max(out)})")
+        return _path_too_long(out, _path_max(out))
     if error.errno == errno.ELOOP:
         return f"{out} cannot be used: it goes through a symbolic link that loops"
     for path in [out, *out.parents]:
@@ -122,41 +127,115 @@ def _describe(out: Path, error: OSError) -> str:
 
 
 def _name_max(out: Path) -> int:
+    return _pathconf(out, "PC_NAME_MAX", 255)
+
+
+def _path_max(out: Path) -> int:
+    return _pathconf(out, "PC_PATH_MAX", 4096)
+
+
+def _pathconf(out: Path, name: str, default: int) -> int:
     for path in [out, *out.parents]:
-        with contextlib.suppress(OSError):
-            return os.pathconf(path, "PC_NAME_MAX")
-    return 255
+        with contextlib.suppress(OSError, ValueError):
+            return os.pathconf(path, name)
+    return default
 
 
 # --- the check before the run ---
 
 
 def folder_problem(out: Path, names=()) -> str | None:
-    """Why `out` cannot take files called `names`, or None if it can. Takes milliseconds; leaves no trace.
+    """Why `out` cannot take files called `names`, or None if it can. Takes milliseconds; creates nothing.
 
-    It tries instead of guessing: the missing folders are created and one empty file with an
-    unguessable name is created there, then all of it is removed again. A folder or a file of
-    someone else's sticky folder in the place of one of `names` is refused as well, since the run
-    could not replace it.
+    It tries instead of guessing (os.access says yes to root for /sys and read-only folders): in
+    `out`, or where `out` does not exist yet in the deepest folder that does, it creates a file that
+    has no name (O_TMPFILE: it vanishes when closed, so nothing is left even in an append-only
+    folder), or where the file system cannot, an empty file with an unguessable name that it
+    removes again. No folder is created: runs started together into a missing folder must not find
+    it appearing and disappearing under them; write_run() creates what is missing and keeps it.
+    A folder, an immutable file or a file of someone else's sticky folder in the place of one of
+    `names` is refused as well, since the run could not replace it.
     """
     out = Path(out)  # (an empty --out is refused by folder_arg: Path("") would be the current folder)
-    created = []
     try:
-        _make_folders(out, created)
-        probe = out / f".probe-{secrets.token_hex(8)}"
-        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | NOFOLLOW, 0o600)
-        os.close(fd)
-        os.unlink(probe)
-        for name in names:
-            problem = _target_problem(out, name)
-            if problem:
-                return problem
+        missing = _first_missing(out)
+        existing = missing[0].parent if missing else out
+        if not os.path.isdir(existing):
+            os.stat(existing)  # a symlink that loops or leads nowhere raises here, a file below
+            raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(existing))
+        too_long = _too_long(out, missing)
+        if too_long:
+            return too_long
+        _probe(existing)
+        if not missing:
+            for problem in [_unreplaceable(out, "the folder"), *(_target_problem(out, name) for name in names)]:
+                if problem:
+                    return problem
     except OSError as error:
         return _describe(out, error)
+    return None
+
+
+def _probe(folder: Path) -> None:
+    """Create a file in `folder` and leave nothing behind, or raise the OSError that says why not."""
+    if hasattr(os, "O_TMPFILE"):
+        try:
+            os.close(os.open(folder, os.O_TMPFILE | os.O_WRONLY | os.O_CLOEXEC, 0o600))
+            return
+        except OSError as error:
+            if error.errno not in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL):
+                raise  # the file system can make unnamed files, and refused this one: that is the answer
+    probe = folder / f".probe-{secrets.token_hex(8)}"
+    os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | NOFOLLOW, 0o600))
+    try:
+        os.unlink(probe)
+    except OSError as error:
+        raise OSError(error.errno, f"{_says(error)} (and the empty file {probe.name} could not be removed)") from None
+
+
+def _too_long(out: Path, missing: list) -> str | None:
+    """Whether a missing folder's name, or the whole path, is longer than the file system takes."""
+    if not missing:
+        return None
+    name_max = _name_max(missing[0].parent)
+    longest = max((folder.name for folder in missing), key=len)
+    if len(os.fsencode(longest)) > name_max:
+        return (f"{out} cannot be created: a name in it is {len(longest)} characters, longer than the file "
+                f"system allows ({name_max})")
+    path_max = _path_max(missing[0].parent)
+    if len(os.fsencode(os.path.abspath(out))) + 1 + len("metrics.json.0123456789abcdef.tmp") >= path_max:
+        return _path_too_long(out, path_max)
+    return None
+
+
+def _path_too_long(out: Path, path_max: int) -> str:
+    return (f"{str(out)[:60]}... cannot be used: the path is {len(os.fsencode(os.path.abspath(out))):,} bytes long, "
+            f"more than the system takes in one path ({path_max:,}), though no name in it is too long")
+
+
+# File attributes (chattr) that forbid replacing a file or adding to a folder: Linux's FS_IOC_GETFLAGS.
+FS_IOC_GETFLAGS, FS_IMMUTABLE_FL, FS_APPEND_FL = 0x80086601, 0x10, 0x20
+
+
+def _unreplaceable(path: Path, what: str) -> str | None:
+    """Whether `path` carries chattr's +i (immutable) or +a (append only), which no rename can get past."""
+    if fcntl is None or not sys.platform.startswith("linux"):
+        return None
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | NOFOLLOW)
+    except OSError:
+        return None  # not ours to open: the rename will say what it says
+    try:
+        flags = int.from_bytes(fcntl.ioctl(fd, FS_IOC_GETFLAGS, bytes(8))[:4], sys.byteorder)
+    except OSError:
+        return None  # a file system without these attributes
     finally:
-        for folder in reversed(created):
-            with contextlib.suppress(OSError):
-                os.rmdir(folder)
+        os.close(fd)
+    for flag, word in ((FS_IMMUTABLE_FL, "immutable (chattr +i)"), (FS_APPEND_FL, "append-only (chattr +a)")):
+        if flags & flag:
+            verb = "files in it cannot be replaced" if what == "the folder" else "it cannot be replaced"
+            return f"{path} is {word}, so {verb}; lift it with chattr -{'i' if flag == FS_IMMUTABLE_FL else 'a'}" \
+                   " or choose another output folder"
     return None
 
 
@@ -173,6 +252,8 @@ def _target_problem(folder: Path, name: str, dir_fd: int | None = None) -> str |
     if here.st_mode & stat.S_ISVTX and euid != 0 and euid not in (here.st_uid, target.st_uid):
         return (f"{folder / name} belongs to another user in a sticky folder (like /tmp), so it cannot be "
                 "replaced; choose another output folder")
+    if stat.S_ISREG(target.st_mode):
+        return _unreplaceable(folder / name, "the file")
     return None
 
 
@@ -193,23 +274,34 @@ def write_run(folder: Path, files: dict) -> None:
     _last_write.update(folder=folder, names=names, state="writing")
     created = []
     try:
-        for _ in range(10):  # another run's check may remove a folder it had made, between our two steps
-            _make_folders(folder, created)
+        for _ in range(100):  # a folder another run made and removed again (its write failed) is made anew
             try:
+                _make_folders(folder, created)
                 with _locked(folder) as dir_fd:
                     _replace_together(folder, dir_fd, {name: _as_bytes(data) for name, data in files.items()})
                 break
             except _FolderGone:
                 continue
+            except FileNotFoundError:
+                missing = _first_missing(folder)
+                if not missing or not os.path.isdir(missing[0].parent):
+                    raise  # not a race: the folder is there (/proc and its kind), or something above it is no folder
         else:
             raise FileNotFoundError(errno.ENOENT, "the folder keeps disappearing")
+    except _FolderGone:
+        raise OutputError(f"{folder} keeps disappearing; {_kept(folder, names)}") from None
     except OSError as error:
         raise OutputError(f"{_describe(folder, error)}; {_kept(folder, names)}") from None
     finally:
         if _last_write["state"] != "written":
             for path in reversed(created):
-                with contextlib.suppress(OSError):
-                    os.rmdir(path)  # only if empty: a concurrent writer's files stay
+                _remove_if_empty(path)  # only if empty: a concurrent writer's files stay
+
+
+def _remove_if_empty(folder: Path) -> None:
+    """rmdir `folder` while holding its lock, so that a run waiting for it finds it gone (see _locked)."""
+    with contextlib.suppress(OSError, _FolderGone), _locked(folder):
+        os.rmdir(folder)
 
 
 def write_atomic(path: Path, data: bytes | str) -> None:
@@ -270,6 +362,8 @@ def _locked(folder: Path, shared: bool = False):
         except OSError as error:
             if error.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.EINVAL, errno.EBADF):
                 raise
+        if os.fstat(dir_fd).st_nlink == 0:  # removed while we waited (a run that made it failed): not a folder
+            raise _FolderGone  # any more, though still open; write_run makes it again
         yield dir_fd
     finally:
         os.close(dir_fd)  # closing the last descriptor releases the lock
@@ -396,39 +490,91 @@ def _signals_deferred():
 def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
     """Decorate a main(argv) -> int so that no failure ends in a traceback.
 
-    Ctrl-C -> 130 and SIGTERM -> 143 (temporary files removed), OutputError -> its exit code,
-    out of memory -> 1, stdout closed early (`| head -1`) or full (/dev/full) -> 1. Each with one
-    line on stderr that says what happened to the run's files. The SIGTERM handler exists only
-    while main() runs: importing the chapter installs nothing.
+    Ctrl-C -> 130 and SIGTERM -> 143 (temporary files removed; also when the signal surfaced as a
+    library's ImportError), OutputError -> its exit code, not enough memory -> 1, stdout closed from
+    the start (`>&-`), closed early (`| head -1`) or full (/dev/full) -> 1. Each with one line on
+    stderr that says what happened to the run's files. Paths stdout cannot encode print escaped.
+    The SIGTERM handler exists only while main() runs: importing the chapter installs nothing;
+    afterwards the guard (interrupts.py) answers signals with what was written.
     """
 
     def decorate(main):
         @functools.wraps(main)
         def guarded(*args, **kwargs):
             _last_write.update(folder=None, names=(), state=None)
+            if sys.stdout is None:  # started with stdout closed (`>&-`): the report would vanish, exit 0 would lie
+                return _stop(1, f"{prog}: error: standard output is closed, so the report could not be printed;"
+                                " nothing was run")
+            _readable_paths()
             restore = _install_sigterm()
+            code = None
             try:
-                return main(*args, **kwargs)
-            except KeyboardInterrupt:
-                return _stop(130, f"interrupted: {_what_was_written()}")
-            except Terminated:
-                return _stop(143, f"terminated: {_what_was_written()}")
+                code = main(*args, **kwargs)
+                sys.stdout.flush()  # the report reaches its pipe or file now, where a failure is still ours to say
+                return code
             except OutputError as error:
-                return _stop(error.exit_code, f"{prog}: error: {error}")
-            except MemoryError:
-                return _stop(1, f"{prog}: error: out of memory ({memory_hint}); {_what_was_written()}")
+                code = _stop(error.exit_code, f"{prog}: error: {error}")
+                return code
             except OSError as error:
-                if not _printing_failed(error):
-                    raise
+                if not _printing_failed(error) or memory_problem(error) or signal_in(error):
+                    code = _other(error, prog, memory_hint)
+                    return code
                 _silence_stdout()
-                return _stop(1, f"{prog}: error: could not print the report ({_says(error)}: stdout closed or full?); "
+                code = _stop(1, f"{prog}: error: could not print the report ({_says(error)}: stdout closed or full?); "
                                 f"{_what_was_written()}")
+                return code
+            except SystemExit as error:  # argparse's exit: bad input (2) or --help (0)
+                code = error.code if isinstance(error.code, int) else 1
+                raise
+            except BaseException as error:
+                code = _other(error, prog, memory_hint)
+                return code
             finally:
                 restore()
+                if interrupts.active():
+                    interrupts.finished(_what_was_written(), code)
 
         return guarded
 
     return decorate
+
+
+def _other(error: BaseException, prog: str, memory_hint: str) -> int:
+    """A signal (also one that surfaced as a library's ImportError) or the system refusing memory: one line.
+    Anything else is a bug and keeps its traceback."""
+    number = signal_in(error)
+    if number is not None:
+        # An object the signal caught half-built (a Rerun stream, say) may complain when it is collected: "Exception
+        # ignored in ... __del__" and a traceback. The process is ending on the signal; the one line below says all.
+        sys.unraisablehook = lambda unraisable: None
+    if number == signal.SIGINT:
+        return _stop(130, f"interrupted: {_what_was_written()}")
+    if number == signal.SIGTERM:
+        return _stop(143, f"terminated: {_what_was_written()}")
+    if memory_problem(error):
+        loading = next((_library(link) for link in interrupts.chain(error) if isinstance(link, ImportError)), None)
+        if loading:  # a library loading late (numpy.random, rerun) under a memory limit: the run's size is not why
+            return _stop(1, f"{prog}: error: not enough memory to load {loading} ({memory_problem(error)}): raise the"
+                            f" memory limit (ulimit -v); {_what_was_written()}")
+        return _stop(1, f"{prog}: error: not enough memory ({memory_problem(error)}): {memory_hint}, or raise the"
+                        f" memory limit; {_what_was_written()}")
+    raise error
+
+
+def _library(error: ImportError) -> str:
+    """The package an ImportError failed to load: numpy.random for .../site-packages/numpy/random/_common.so."""
+    where = (error.path or str(error)).replace(os.sep, "/")
+    if "-packages/" in where:
+        return ".".join(where.split("-packages/", 1)[1].split(":")[0].split("/")[:-1]) or str(error.name)
+    return str(error.name)
+
+
+def _readable_paths() -> None:
+    """Print paths stdout cannot encode (a non-ASCII folder under PYTHONIOENCODING=ascii, a non-UTF-8 byte
+    in a name) as backslash escapes, instead of failing after the files were written."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, ValueError, OSError):
+            stream.reconfigure(errors="backslashreplace")
 
 
 def _what_was_written() -> str:

@@ -5,6 +5,7 @@ bytes), and the cells of the table it prints.
 """
 
 import json
+import math
 
 
 def rounded(value):
@@ -15,6 +16,8 @@ def rounded(value):
         return {key: rounded(item) for key, item in value.items()}
     if isinstance(value, list):
         return [rounded(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None  # strict JSON has no NaN or inf: a figure that overflowed is null, as a diverged one is
     if isinstance(value, float):
         return round(value, 12) + 0.0  # + 0.0: a tiny negative drift rounds to -0.0, and the file says 0.0
     return value
