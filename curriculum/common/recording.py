@@ -1,0 +1,245 @@
+"""The course's recordings: one colour-blind-safe palette, and one way every recording opens.
+
+Every .rrd the course writes (engine.py's, every exercise's) takes its colours and its opening from here,
+so a student meets the same colours for the same integrators, and every file opens the same way: the
+whole run, the time cursor on the last step, the side panels closed, every shape and curve framed.
+
+A recording in a few lines (a time series per name; exercise 7's shape):
+
+    from curriculum.common import recording as course
+
+    def fill(stream):                                         # stream: a rerun.RecordingStream
+        look = course.looks(curves)                           # {name: Look(colour, label)}; never a KeyError
+        values = [course.log_series(stream, f"energy/{name}", steps, curves[name], look[name]) for name in curves]
+        return course.opening(course.time_series("energy", "(E - E0) / |E0|", steps[-1], values), steps[-1])
+
+    data = course.recorded("zero2robot-ch3_3-ex7", fill)      # the .rrd bytes; write them with write_atomic
+
+- `looks(names)`: each name's colour and label. The integrators have theirs (COLOURS, LABELS); any other
+  name takes the next spare palette colour and is labelled with itself.
+- `log_series(stream, entity, steps, values, look, width=None)`: one line on the `step` timeline, in its
+  colour, named in the legend; non-finite values are left out. Returns the values it logged.
+- `time_series(origin, name, last_step, values, legend="RightBottom")`: a plot of everything under
+  `origin`, opening on steps 0..last_step, its y range fitted to `values` (what log_series returned).
+- `from_above(origin, name, paths)`: a flat plot drawn in a 3D view seen from straight above (Rerun's 2D
+  views point y down), its camera framing every drawable point of `paths`. `log_axes` draws its axes,
+  named past their tips; `log_key` a key of coloured dots and labels beside the paths (frame it too).
+- `opening(story, last_step)`: the Blueprint to send: `story` (a view, or rrb.Horizontal/Vertical of
+  views) with the panels closed and the cursor on the last step; play replays the run in about 20 s.
+- `recorded(application_id, fill, recording_id=None)`: builds the recording in memory, sends the
+  blueprint `fill(stream)` returns, and gives back the bytes (also after a Ctrl-C inside `fill`).
+
+The palette is Okabe and Ito's (Color Universal Design, 2008). The four integrators' colours stay more
+than 20 apart in CAM02-UCS from one another and from the viewer's background, for normal vision and for
+simulated deuteranopia, protanopia and tritanopia at full severity (tests/test_palette.py measures it).
+The chapter's key pair, explicit and semi-implicit Euler, is vermillion against sky blue: never red
+against green. Importing this module loads nothing heavy; Rerun loads when a function needs it.
+"""
+
+import math
+from typing import NamedTuple
+
+PALETTE = {  # Okabe & Ito's colour-universal set (black left out: it is the viewer's background)
+    "vermillion": (213, 94, 0), "sky_blue": (86, 180, 233), "yellow": (240, 228, 66), "blue": (0, 114, 178),
+    "bluish_green": (0, 158, 115), "reddish_purple": (204, 121, 167), "orange": (230, 159, 0),
+}
+BACKGROUND = (13, 13, 13)  # the viewer's dark background (Rerun 0.41), read off a screenshot's pixels
+GREY = (150, 150, 150)  # reference lines and axes: no integrator's colour
+COLOURS = {"euler": PALETTE["vermillion"], "semi_implicit": PALETTE["sky_blue"], "rk4": PALETTE["yellow"],
+           "implicit": PALETTE["blue"]}
+LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk4": "RK4",
+          "implicit": "implicit (damping)"}
+SPARE_COLOURS = [colour for colour in PALETTE.values() if colour not in COLOURS.values()]  # for new names
+PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
+DRAW_LIMIT = 1e30  # Rerun stores float32 (up to 3.4e38): we draw coordinates below this, leaving headroom
+# for the camera's distance and the labels' lifts; a diverged run's inf and NaN are never drawn
+
+
+class Look(NamedTuple):
+    colour: tuple
+    label: str
+
+
+def looks(names) -> dict:
+    """{name: Look(colour, label)} for these names, in their order. A name the course has no colour for
+    takes the next spare palette colour (round again after the last) and its own name as its label."""
+    spare = [colour for colour in SPARE_COLOURS if colour not in (COLOURS.get(name) for name in names)]
+    new = [name for name in names if name not in COLOURS]
+    return {name: Look(COLOURS[name] if name in COLOURS else spare[new.index(name) % len(spare)],
+                       LABELS.get(name, name)) for name in names}
+
+
+# --- what the viewer opens on ---
+
+
+def opening(story, last_step: int, timeline: str = "step"):
+    """The Blueprint every course recording opens with: `story` (a view or a container of views) fills the
+    window, the side panels are closed, and the time cursor sits on the last step (play state
+    "following"): every body where its run ended, every plot whole. Pause, then play, and the viewer
+    starts again from step 0 and takes about PLAYBACK_SECONDS to the end."""
+    import rerun.blueprint as rrb
+
+    return rrb.Blueprint(
+        story,
+        rrb.BlueprintPanel(state="hidden"),
+        rrb.SelectionPanel(state="hidden"),
+        rrb.TimePanel(state="collapsed", timeline=timeline, play_state="following",
+                      fps=max(int(last_step) / PLAYBACK_SECONDS, 1.0)),
+    )
+
+
+def recorded(application_id: str, fill, recording_id: str | None = None) -> bytes:
+    """The .rrd bytes of a recording built in memory: fill(stream) logs into `stream` and returns the
+    blueprint (from opening()). Nothing touches the disk here: the caller writes the bytes atomically."""
+    import rerun as rr
+
+    stream = rr.RecordingStream(application_id, recording_id=recording_id)
+    in_memory = stream.memory_recording()
+    try:
+        stream.send_blueprint(fill(stream), make_active=False, make_default=True)
+    finally:
+        data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
+    return data
+
+
+def on_steps(steps):
+    """The `step` timeline column for send_columns."""
+    import rerun as rr
+
+    return [rr.TimeColumn("step", sequence=steps)]
+
+
+# --- time series ---
+
+
+def log_series(stream, entity: str, steps, values, look: Look, width: float | None = None):
+    """One line on the `step` timeline in look's colour, named look.label in the legend. Non-finite
+    values (a diverged run, the log of an exact zero) are left out. Returns the values logged."""
+    import numpy as np
+    import rerun as rr
+
+    steps, values = np.asarray(steps), np.asarray(values, dtype=float)
+    style = rr.SeriesLines(colors=[look.colour], names=[look.label], widths=None if width is None else [width])
+    stream.log(entity, style, static=True)
+    shown = np.isfinite(values)
+    stream.send_columns(entity, indexes=on_steps(steps[shown]), columns=rr.Scalars.columns(scalars=values[shown]))
+    return values[shown]
+
+
+def layered_widths(names, widest: float = 7.0, thinnest: float = 1.5) -> dict:
+    """{name: line width} that lets lines lying on one another all show: the viewer draws series in name
+    order, so the first drawn is the widest and each later one thinner, down to `thinnest`."""
+    order = sorted(names)
+    step = (widest - thinnest) / (len(order) - 1) if len(order) > 1 else 0.0
+    return {name: widest - i * step if len(order) > 1 else thinnest for i, name in enumerate(order)}
+
+
+def padded(values, margin: float = 0.05):
+    """(low, high) of the values with a margin, or None (the viewer's own fit) when there are none."""
+    import numpy as np
+
+    values = np.concatenate([np.ravel(v) for v in values]) if isinstance(values, list | tuple) else np.ravel(values)
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        return None
+    low, high = float(values.min()), float(values.max())
+    pad = margin * ((high - low) or 1.0)
+    return (low - pad, high + pad)
+
+
+def time_series(origin: str, name: str, last_step: int, values=None, legend: str = "RightBottom", y_range=None):
+    """A plot of every series under `origin`, opening on the whole run (step 0 to last_step), its y range
+    fitted to `values` (an array or a list of arrays) or given as y_range; hovering shows every curve."""
+    import rerun as rr
+    import rerun.blueprint as rrb
+
+    whole_run = rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seq=0),
+                             end=rrb.TimeRangeBoundary.absolute(seq=int(last_step)))
+    return rrb.TimeSeriesView(origin=origin, name=name, axis_x=rrb.TimeAxis(view_range=whole_run),
+                              axis_y=rrb.ScalarAxis(range=y_range or padded(values if values is not None else [])),
+                              plot_legend=rrb.PlotLegend(corner=legend),
+                              interaction=rrb.PlotInteraction(tooltip_mode="All"))
+
+
+# --- flat plots and paths, seen from above ---
+
+
+def drawable(points):
+    """Rows whose every coordinate Rerun can draw (a diverged run's inf and NaN are left out)."""
+    import numpy as np
+
+    return (np.abs(points) < DRAW_LIMIT).all(axis=-1)
+
+
+def extent(paths):
+    """The corners (low, high) of the box around every drawable point of the paths ((..., 3) arrays);
+    a unit box if there are none."""
+    import numpy as np
+
+    points = np.concatenate([np.reshape(p, (-1, 3))[drawable(np.reshape(p, (-1, 3)))] for p in paths])
+    if len(points) == 0:
+        return np.full(3, -1.0), np.full(3, 1.0)
+    return points.min(axis=0), points.max(axis=0)
+
+
+def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | None = 0.5, margin: float = 1.2):
+    """A 3D view of `origin` whose camera frames every drawable point of `paths`, looking down on z = 0.
+
+    tilt 0 looks straight down with +y up the screen: a flat plot with y pointing up, as on paper (Rerun's
+    2D views point y down). A small tilt shows that it is 3D. margin > 1 leaves room for the axis names."""
+    import rerun.blueprint as rrb
+
+    low, high = extent(paths)
+    centre = (low + high) / 2.0
+    distance = margin * float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
+    up = [0.0, 0.0, 1.0] if tilt else [0.0, 1.0, 0.0]
+    eye = rrb.EyeControls3D(kind="Orbital", look_target=centre.tolist(), eye_up=up,
+                            position=(centre + [0.0, -tilt * distance, distance]).tolist())
+    lines = rrb.LineGrid3D(visible=grid is not None, spacing=grid or 1.0)
+    return rrb.Spatial3DView(origin=origin, name=name, eye_controls=eye, line_grid=lines)
+
+
+def log_key(stream, entity: str, looks: dict, paths):
+    """A spatial view's key: one dot per name in its colour, its label under it, in a column just right of
+    every drawable point of `paths`, from their top edge down. Fixed in the plane, so no label ever sits on
+    a path or on another label however the bodies crowd. Returns the key's points, for from_above()."""
+    import numpy as np
+    import rerun as rr
+
+    low, high = extent(paths)
+    span = float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
+    gap = min(0.15 * span, float(high[1] - low[1] or span) / max(len(looks), 1))
+    names = list(looks)
+    positions = np.array([[float(high[0]) + 0.15 * span, float(high[1]) - i * gap, 0.0] for i in range(len(names))])
+    key = rr.Points3D(positions, colors=[looks[n].colour for n in names], labels=[looks[n].label for n in names],
+                      radii=rr.components.Radius.ui_points(6.0), show_labels=True)
+    stream.log(entity, key, static=True)
+    return positions
+
+
+def log_axes(stream, entity: str, low, high, names: tuple[str, str]) -> None:
+    """Two axes through the origin spanning low..high (x, y), each named just past its positive tip,
+    with ticks at round numbers. Each name sits beyond its own tip, so the two never meet."""
+    import rerun as rr
+
+    grey = [GREY]
+    (x0, y0), (x1, y1) = (float(low[0]), float(low[1])), (float(high[0]), float(high[1]))
+    lines = rr.LineStrips3D([[[x0, 0, 0], [x1, 0, 0]], [[0, y0, 0], [0, y1, 0]]], colors=grey,
+                            radii=rr.components.Radius.ui_points(1.0))
+    stream.log(entity, lines, static=True)
+    tips = rr.Points3D([[x1, 0, 0], [0, y1, 0]], radii=[0.0], colors=[[200, 200, 200]], labels=list(names),
+                       show_labels=True)
+    stream.log(f"{entity}/names", tips, static=True)
+    ticks = []
+    for axis, (start, end) in enumerate(((x0, x1), (y0, y1))):
+        length = max(abs(start), abs(end))
+        unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0  # 1 to 9 ticks each way
+        if length < 2.0 * unit:  # 1.0 to 1.99: ticks every half unit, so that one lands inside the tip
+            unit /= 2.0
+        for k in range(math.ceil(start / unit), math.floor(end / unit) + 1):
+            at_tip = abs(k * unit - end) < 0.15 * (end - start)  # a tick there would sit under the axis name
+            if k and not at_tip:
+                ticks.append([k * unit if axis == 0 else 0.0, k * unit if axis == 1 else 0.0, 0.0])
+    marks = rr.Points3D(ticks, radii=rr.components.Radius.ui_points(3.0), colors=grey,
+                        labels=[f"{t[0] + t[1]:g}" for t in ticks], show_labels=True)
+    stream.log(f"{entity}/ticks", marks, static=True)
