@@ -11,7 +11,6 @@ writes a recording of the blob moving (outputs/ch3.3-engine/ex5_blob.rrd; --no-r
 
 import argparse
 import math
-import re
 import sys
 from pathlib import Path
 
@@ -24,7 +23,7 @@ import engine
 from curriculum.common import recording as course
 from curriculum.common import write_atomic
 from curriculum.common.outputs import folder_problem, one_line_failures
-from curriculum.common.predict import OneOf, ask, explain, template, verdict
+from curriculum.common.predict import PerName, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
 STEPS, DT, COARSE_DT = 2000, 0.01, 0.1
@@ -197,38 +196,6 @@ def record(path: Path, table: dict) -> None:
 # --- the exercise ---
 
 
-class EachOf:
-    """One word per name: 'euler=grows, semi-implicit: stays, RK4 = shrinks' (any spacing, order, case).
-
-    The answer form of predict.py's PerName, with words where PerName takes numbers."""
-
-    def __init__(self, names, words):
-        self.names, self.words = OneOf(names), OneOf(words)
-        self.forms = (f"name=word for each of {', '.join(names)}, separated by commas,"
-                      f" each word one of {', '.join(words)} ({template(names, 'word')})")
-
-    def parse(self, text: str) -> dict:
-        prediction = {}
-        for item in filter(None, (part.strip() for part in re.split(r"[,;]", text))):
-            match = re.fullmatch(r"([^=:]*?)\s*[=:]\s*(.*)", item)
-            if not match:
-                raise ValueError(f"{item!r} has no '=': expected {self.forms}")
-            name_text, word_text = match.groups()
-            if re.search(r"[=:]", word_text):
-                raise ValueError(f"{item!r} holds two answers: put a comma between them")
-            if word_text.strip() in ("?", "..."):
-                raise ValueError(f"in {item!r}, put your word where the {word_text.strip()} is:"
-                                 f" one of {', '.join(self.words.names)}")
-            name, word = self.names.parse(name_text), self.words.parse(word_text)
-            if name in prediction:
-                raise ValueError(f"{name} is given twice")
-            prediction[name] = word
-        missing = [name for name in self.names.names if name not in prediction]
-        if missing:
-            raise ValueError(f"no answer for {', '.join(missing)}: expected {self.forms}")
-        return prediction
-
-
 def rrd_problem(path: Path) -> str | None:
     """Why the recording cannot go to `path`, or None: it must be an .rrd file in a folder we can write,
     so that a slip such as `--rrd README.md` never overwrites something else."""
@@ -248,7 +215,7 @@ def main(argv=None) -> int:
                         help="where the recording goes (default outputs/ch3.3-engine/ex5_blob.rrd)")
     guess = ask(parser, "A disc of starting states in the spring's (x, v_x) plane runs 2000 steps of dt 0.01"
                 " under each integrator. What happens to the disc's area under each one?",
-                EachOf(list(engine.INTEGRATORS), CHOICES), argv)
+                PerName(engine.INTEGRATORS, CHOICES), argv)
     args = parser.parsed
     problem = rrd_problem(args.rrd) if args.rerun else None
     if problem:

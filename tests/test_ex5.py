@@ -173,17 +173,6 @@ def test_as_a_student_runs_it_with_the_recording(tmp_path):
         assert sorted(frames) == list(range(0, ex5.STEPS + 1, ex5.RECORD_EVERY))
 
 
-def test_two_answers_without_a_comma_between_them_are_named():
-    each = ex5.EachOf(list(engine.INTEGRATORS), ex5.CHOICES)
-    assert each.parse("euler:grows; semi implicit = stays, RK-4=shrinks") == {
-        "euler": "grows", "semi_implicit": "stays", "rk4": "shrinks"}
-    with pytest.raises(ValueError, match="holds two answers: put a comma between them"):
-        each.parse("euler=grows, rk4 = shrinks semi_implicit=stays")
-    with pytest.raises(ValueError, match="put your word where the \\? is"):
-        each.parse("euler=?, semi_implicit=?, rk4=?")
-
-
-
 def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(chapter_table, tmp_path):
     """Like engine.py's: the whole run, the cursor on the last step, panels closed; every frame of every blob
     inside the camera's view, the axes named at their own tips, a key naming each integrator in its colour."""
