@@ -246,32 +246,28 @@ def _words(text: str) -> list:
     return text.split()
 
 
-def _pairs(text: str, forms: str) -> list:
-    """[(name text, value text)] of 'euler=8, semi implicit: 4 rk4=1': split at every '=' or ':'; between two
-    of them sits one value, then (after a comma, a semicolon or a space) the next name. One pass over the text."""
+def _pairs(text: str, forms: str):
+    """(name text, value text) for each item of 'euler=8, semi implicit: 4 rk4=1', one at a time (a refusal
+    comes at the first bad item, however long the rest). Split at every '=' or ':'; between two of them
+    sits one value, then (after a comma, a semicolon or a space) the next name."""
     pieces = re.split(r"[=:]", text)  # a character class, no repetition: linear in the text
     if len(pieces) == 1:
         if not text.strip(" ,;\t\n"):
             raise ValueError(f"the answer is empty: expected {forms}")
         raise ValueError(f"{_shown(text)} has no '=': expected {forms}")
-    names, values = [pieces[0]], []
-    for middle in pieces[1:-1]:
-        value, name = _value_then_name(middle)
-        values.append(value)
-        names.append(name)
-    values.append(pieces[-1])
-    pairs = []
-    for name, value in zip(names, values, strict=True):
+    name = pieces[0]
+    for at in range(1, len(pieces)):
+        value, next_name = (pieces[at], "") if at == len(pieces) - 1 else _value_then_name(pieces[at])
         name = name.strip(" ,;\t\n")
         if not name:
             raise ValueError(f"{_shown('=' + value)} has no name before its '=': expected {forms}")
         if SEPARATORS[0] in name or SEPARATORS[1] in name:  # 'euler 8, rk4=1': an item with no '='
-            lone = re.split(r"[,;]", name)[0]
-            raise ValueError(f"{_shown(lone)} has no '=': expected {forms}")
-        if any(sep in value.strip(" ,;\t\n") for sep in SEPARATORS):
+            raise ValueError(f"{_shown(re.split(r'[,;]', name)[0])} has no '=': expected {forms}")
+        value = value.strip(" ,;\t\n")
+        if any(separator in value for separator in SEPARATORS):
             raise ValueError(f"in {_shown(name + '=' + value)}, one value per name: expected {forms}")
-        pairs.append((name, value.strip(" ,;\t\n")))
-    return pairs
+        yield name, value
+        name = next_name
 
 
 def _value_then_name(text: str) -> tuple[str, str]:
