@@ -3,10 +3,10 @@
 engine.py imports this only when a recording is asked for, so the physics and the tests run without
 Rerun. Each system opens on its own lesson: RECORDED_VIEWS lists, per system, the views it needs, and
 each log_<view>() logs its data along the `step` timeline and returns that view's layout. A new system
-or view plugs in with one function and one line in the table. Colours, labels and the way the file
-opens are the course's (curriculum/common/recording.py): an integrator the course has no colour for
-takes the next spare one from the colour-blind-safe palette, so a new name is never a KeyError.
-Comments say what the viewer will show.
+records its paths and its energy error (DEFAULT_VIEWS) until it gets a line of its own in the table; a
+new view is one function. Colours, labels and the way the file opens are the course's
+(curriculum/common/recording.py): an integrator the course has no colour for takes the next spare one
+from the colour-blind-safe palette, so a new name is never a KeyError. Comments say what the viewer shows.
 """
 
 import numpy as np
@@ -32,7 +32,8 @@ def record(system: dict, runs: dict, kept: np.ndarray, dt: float, run_id: str,
     import rerun.blueprint as rrb
 
     def fill(recording):
-        views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in RECORDED_VIEWS[system["name"]]]
+        lesson = RECORDED_VIEWS.get(system["name"], DEFAULT_VIEWS)
+        views = [log_view(rr, rrb, recording, system, runs, kept, dt) for log_view in lesson]
         below = [log_view(rr, rrb, recording, ensemble, kept) for log_view in ENSEMBLE_VIEWS] if ensemble else []
         return layout(rrb, views, below, kept)
 
@@ -70,17 +71,22 @@ def log_bodies(rr, recording, entity, look, points, kept):
                            columns=rr.Points3D.columns(positions=points[shown]))
 
 
+def log_paths(rr, rrb, recording, system, runs, kept, dt, origin="paths", name="the paths, from above"):
+    """3D, seen from above at a slight tilt: each integrator's path as a trail, its body at the end, a key."""
+    paths = {integrator: positions for integrator, (positions, _, _) in runs.items()}
+    looks = course.looks(paths)
+    for integrator, positions in paths.items():
+        log_bodies(rr, recording, f"{origin}/{integrator}", looks[integrator], positions, kept)
+    key = course.log_key(recording, f"{origin}/key", looks, paths.values())
+    return course.from_above(origin, name, [*paths.values(), key], tilt=0.35)
+
+
 def log_orbit(rr, rrb, recording, system, runs, kept, dt):
-    """3D, seen from above: each body circles the attractor, Euler's spiralling out, the other two together."""
+    """The paths around the attractor: Euler's spiralling out, the other two together."""
     attractor = rr.Points3D([[0.0, 0.0, 0.0]], radii=rr.components.Radius.ui_points(6.0), colors=[[230, 230, 230]],
                             labels=["attractor"])
     recording.log("orbit/attractor", attractor, static=True)
-    paths = {name: positions for name, (positions, _, _) in runs.items()}
-    looks = course.looks(paths)
-    for name, positions in paths.items():
-        log_bodies(rr, recording, f"orbit/{name}", looks[name], positions, kept)
-    key = course.log_key(recording, "orbit/key", looks, paths.values())
-    return course.from_above("orbit", "orbit: the paths, from above", [*paths.values(), key], tilt=0.35)
+    return log_paths(rr, rrb, recording, system, runs, kept, dt, "orbit", "orbit: the paths, from above")
 
 
 def first_start(system):
@@ -96,23 +102,25 @@ def log_phase_plane(rr, rrb, recording, system, runs, kept, dt):
     looks = course.looks(planes)
     for name, plane in planes.items():
         log_bodies(rr, recording, f"phase/{name}", looks[name], plane, kept)
-    # The exact motion, wide and grey, a hair below the plane so the integrators' lines lie on top of it.
-    # Its velocity is the exact position's central difference over a microsecond.
-    q0, v0 = first_start(system)
-    t, h = kept * dt, 1e-6
-    x = system["exact"](q0, v0, t)[:, 0]
-    v = (system["exact"](q0, v0, t + h)[:, 0] - system["exact"](q0, v0, t - h)[:, 0]) / (2.0 * h)
     low, high = course.extent(planes.values())
     span = float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
-    exact = np.stack([x, v, np.full(len(kept), -0.002 * span)], axis=1)
-    recording.log("phase/exact", rr.LineStrips3D([exact[course.drawable(exact)]], colors=[EXACT_GREY],
-                                                 radii=rr.components.Radius.ui_points(3.0)), static=True)
+    if system.get("exact"):
+        # The exact motion, wide and grey, a hair below the plane so the integrators' lines lie on top of it.
+        # Its velocity is the exact position's central difference over a microsecond.
+        q0, v0 = first_start(system)
+        t, h = kept * dt, 1e-6
+        x = system["exact"](q0, v0, t)[:, 0]
+        v = (system["exact"](q0, v0, t + h)[:, 0] - system["exact"](q0, v0, t - h)[:, 0]) / (2.0 * h)
+        exact = np.stack([x, v, np.full(len(kept), -0.002 * span)], axis=1)
+        recording.log("phase/exact", rr.LineStrips3D([exact[course.drawable(exact)]], colors=[EXACT_GREY],
+                                                     radii=rr.components.Radius.ui_points(3.0)), static=True)
     # The axes cross at the origin and reach a little past the paths on every side (the origin included).
     reach_low, reach_high = np.minimum(low, 0.0) - 0.08 * span, np.maximum(high, 0.0) + 0.08 * span
     course.log_axes(recording, "phase/axes", reach_low, reach_high, ("x (m)", "v_x (m/s)"))
     axes_box = np.array([reach_low, reach_high])
     key = course.log_key(recording, "phase/key", looks, [*planes.values(), axes_box])
-    name = f"{system['name']}: phase plane, x against v_x (grey: the exact motion)"
+    grey = " (grey: the exact motion)" if system.get("exact") else ""
+    name = f"{system['name']}: phase plane, x against v_x{grey}"
     # framed with room above the v_x name and beside the x name, which sit just past the axes' tips
     return course.from_above("phase", name, [*planes.values(), axes_box, key], margin=1.3)
 
@@ -229,4 +237,5 @@ RECORDED_VIEWS = {  # per system, the views its lesson needs; the first one open
     "freefall": (log_energy_change, log_height),
     "damped_spring": (log_phase_plane, log_position_error),  # energy drains by design: the exact motion referees
 }
+DEFAULT_VIEWS = (log_paths, log_energy_error)  # a system without its line: where the bodies went, and the energy
 ENSEMBLE_VIEWS = (log_member_paths, log_error_spread)  # an --ensemble run adds these in a row below

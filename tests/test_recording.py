@@ -239,8 +239,19 @@ def test_long_runs_are_thinned_in_the_recording_but_not_in_the_metrics(tmp_path,
 
 
 def test_every_system_has_its_views_in_the_table():
-    """A new system records only once it has its line in RECORDED_VIEWS: this says so before a student does."""
+    """Each of the chapter's systems opens on its own lesson, not on the default for a newcomer."""
     assert set(engine_recording.RECORDED_VIEWS) == set(engine.SYSTEMS + engine.DAMPED_SYSTEMS)
+
+
+def test_a_system_without_its_line_records_its_paths_and_energy_error(tmp_path):
+    """A maintainer adds a system (say an anharmonic spring, no exact motion) and has not chosen its views yet."""
+    system = {**engine.build_system("spring", np.random.default_rng(0)), "name": "anharmonic", "exact": None}
+    runs = {name: engine.simulate(step, system, DT, 100) for name, step in engine.integrators_for(system).items()}
+    data, _ = engine_recording.record(system, runs, engine.kept_steps(100), DT, run_id="new-system")
+    (tmp_path / "new.rrd").write_bytes(data)
+    _, entities, settings = read_recording(tmp_path / "new.rrd")
+    assert set(views_of(settings)) == {("3D", "paths"), ("TimeSeries", "energy_error")}
+    assert {f"/paths/{name}/trail" for name in runs} <= set(entities)
 
 
 def test_the_damped_spring_opens_on_its_phase_plane_beside_its_error_against_the_exact_motion(tmp_path):
