@@ -208,7 +208,7 @@ def log_key(stream, entity: str, looks: dict, paths):
 
     low, high = extent(paths)
     span = float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
-    gap = min(0.15 * span, float(high[1] - low[1] or span) / max(len(looks), 1))
+    gap = min(0.2 * span, float(high[1] - low[1] or span) / max(len(looks), 1))
     names = list(looks)
     positions = np.array([[float(high[0]) + 0.15 * span, float(high[1]) - i * gap, 0.0] for i in range(len(names))])
     key = rr.Points3D(positions, colors=[looks[n].colour for n in names], labels=[looks[n].label for n in names],
