@@ -51,12 +51,19 @@ def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
 
     The worst-so-far only rises, so the recording's curves carry no noise from errors crossing zero."""
     e0 = energies[0]
-    # highest and lowest energy between one kept step and the next, then carried on: (len(kept), N) each
+    # highest and lowest energy between one kept step and the next, then carried on: (len(kept), N) each,
+    # worked on in place so the recording's spread costs what the plain |E - E0| at the kept steps did
     starts = np.concatenate([[0], kept[:-1] + 1])
     with np.errstate(all="ignore"):
-        highest = np.maximum.accumulate(np.maximum.reduceat(energies, starts, axis=0), axis=0)
-        lowest = np.minimum.accumulate(np.minimum.reduceat(energies, starts, axis=0), axis=0)
-        worst = np.maximum(highest - e0, e0 - lowest, out=highest) / np.where(e0 != 0.0, np.abs(e0), 1.0)
+        worst = np.maximum.reduceat(energies, starts, axis=0)
+        np.maximum.accumulate(worst, axis=0, out=worst)
+        lowest = np.minimum.reduceat(energies, starts, axis=0)
+        np.minimum.accumulate(lowest, axis=0, out=lowest)
+        worst -= e0
+        np.subtract(e0, lowest, out=lowest)
+        np.maximum(worst, lowest, out=worst)
+        del lowest
+        worst /= np.where(e0 != 0.0, np.abs(e0), 1.0)
         worst[~np.isfinite(worst)] = np.inf  # a diverged member sorts last
         # (a median of two errors near the float limit overflows to inf, which the plot leaves out)
         return np.stack([worst.min(axis=1), np.median(worst, axis=1), worst.max(axis=1)], axis=1)
