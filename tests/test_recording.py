@@ -335,3 +335,34 @@ def test_the_ensemble_plot_tells_every_curve_apart(tmp_path):
     (key_names,) = column(entities["/ensemble_paths/key"], "Points3D:labels")
     assert key_names == [look.label for look in looks.values()]
     assert ("3D", "ensemble_paths") in views_of(settings)
+
+
+def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
+    """curriculum/common/recording.py as its docstring shows it (exercise 7's shape): a few lines, the opening."""
+    steps = np.arange(301)
+    errors = {"orbit": {"euler": steps * 1e-3, "verlet": np.cos(steps / 10.0)},
+              "spring": {"rk4": np.full(301, np.nan), "semi_implicit": -steps * 1e-4}}
+
+    def fill(stream):
+        views = []
+        for system, curves in errors.items():
+            look = course.looks(curves)
+            logged = [course.log_series(stream, f"{system}/{n}", steps, curves[n], look[n]) for n in curves]
+            views.append(course.time_series(system, f"{system}: (E - E0) / |E0|", steps[-1], logged))
+        return course.opening(views, steps[-1])
+
+    (tmp_path / "api.rrd").write_bytes(course.recorded("zero2robot-test", fill))
+    recording, entities, settings = read_recording(tmp_path / "api.rrd")
+    assert recording.application_id == "zero2robot-test"
+    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
+    views = views_of(settings)
+    assert set(views) == {("TimeSeries", "orbit"), ("TimeSeries", "spring")}
+    assert views[("TimeSeries", "orbit")]["TimeAxis:view_range"] == {"start": 0, "end": 300}
+    low, high = views[("TimeSeries", "orbit")]["ScalarAxis:range"]
+    assert low < -0.99 and high > 0.99, "fitted to every value logged"
+    assert column(entities["/orbit/verlet"], "SeriesLines:names")[0] == ["verlet"]
+    drawn = [row for b in entities["/spring/rk4"] if "Scalars:scalars" in b.schema.names
+             for row in b.column("Scalars:scalars").to_pylist()]
+    assert drawn == [], "NaN is left out, not drawn"
+    assert len(column(entities["/spring/semi_implicit"], "Scalars:scalars")) == 301

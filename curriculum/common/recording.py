@@ -24,8 +24,9 @@ A recording in a few lines (a time series per name; exercise 7's shape):
 - `from_above(origin, name, paths)`: a flat plot drawn in a 3D view seen from straight above (Rerun's 2D
   views point y down), its camera framing every drawable point of `paths`. `log_axes` draws its axes,
   named past their tips; `log_key` a key of coloured dots and labels beside the paths (frame it too).
-- `opening(story, last_step)`: the Blueprint to send: `story` (a view, or rrb.Horizontal/Vertical of
-  views) with the panels closed and the cursor on the last step; play replays the run in about 20 s.
+- `opening(story, last_step)`: the Blueprint to send: `story` (a view, a list of views to stack, or an
+  rrb.Horizontal/Vertical/Grid of views) with the panels closed and the cursor on the last step; play
+  replays the run in about 20 s.
 - `recorded(application_id, fill, recording_id=None)`: builds the recording in memory, sends the
   blueprint `fill(stream)` returns, and gives back the bytes (also after a Ctrl-C inside `fill`).
 
@@ -73,12 +74,14 @@ def looks(names) -> dict:
 
 
 def opening(story, last_step: int, timeline: str = "step"):
-    """The Blueprint every course recording opens with: `story` (a view or a container of views) fills the
-    window, the side panels are closed, and the time cursor sits on the last step (play state
-    "following"): every body where its run ended, every plot whole. Pause, then play, and the viewer
-    starts again from step 0 and takes about PLAYBACK_SECONDS to the end."""
+    """The Blueprint every course recording opens with: `story` (a view, a list of views to stack, or an
+    rrb.Horizontal/Vertical/Grid of them) fills the window, the side panels are closed, and the time
+    cursor sits on the last step (play state "following"): every body where its run ended, every plot
+    whole. Pause, then play, and the viewer starts again from step 0 and takes about PLAYBACK_SECONDS."""
     import rerun.blueprint as rrb
 
+    if isinstance(story, list | tuple):  # several views: one under the other
+        story = rrb.Vertical(*story)
     return rrb.Blueprint(
         story,
         rrb.BlueprintPanel(state="hidden"),
