@@ -28,9 +28,10 @@ A recording in a few lines (a time series per name; exercise 7's shape):
   rrb.Horizontal/Vertical/Grid of views) with the panels closed and the cursor on the last step; play
   replays the run in about 20 s.
 - `recorded(application_id, fill, recording_id=None)`: builds the recording in memory, sends the
-  blueprint `fill(stream)` returns, and gives back the bytes (also after a Ctrl-C inside `fill`).
+  blueprint `fill(stream)` returns, and gives back the bytes; if `fill` is interrupted (Ctrl-C) the
+  stream is still drained, so Rerun has nothing left to flush while the process exits.
 
-The palette is Okabe and Ito's (Color Universal Design, 2008). The four integrators' colours stay more
+The palette is Okabe and Ito's colour-universal set (Color Universal Design). The four integrators' colours stay more
 than 20 apart in CAM02-UCS from one another and from the viewer's background, for normal vision and for
 simulated deuteranopia, protanopia and tritanopia at full severity (tests/test_palette.py measures it).
 The chapter's key pair, explicit and semi-implicit Euler, is vermillion against sky blue: never red
