@@ -603,7 +603,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                      f" ({', '.join(SYSTEMS)})")
     needs = getattr(INTEGRATORS.get(args.integrator), "needs", None)  # implicit needs the force's dforce_dv
     if needs:
-        offered = [name for name in [*SYSTEMS, *DAMPED_SYSTEMS] if needs in build_system(name, np.random.default_rng())]
+        every_system = [build_system(name, np.random.default_rng(0)) for name in [*SYSTEMS, *DAMPED_SYSTEMS]]
+        offered = [system["name"] for system in every_system if needs in system]
         if args.system not in offered:
             parser.error(f"argument --integrator: {args.integrator} needs a velocity-dependent force ({needs}),"
                          f" so --system {' or '.join(offered)}")

@@ -104,11 +104,20 @@ def ensemble_drift(energies: np.ndarray) -> dict:
 
 
 def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
-    """(len(kept), 3): min, median and max over the members of |E - E0| / |E0| at the kept steps."""
-    relative = np.abs(engine.relative_energy_error(energies[kept]))
-    relative[~np.isfinite(relative)] = np.inf  # a diverged member sorts last
+    """(len(kept), 3): at each kept step k, each member's worst |E - E0| / |E0| over steps 0..k (every
+    step counts, kept or not), and of those the best member's, the median and the worst member's.
+
+    The worst-so-far only rises, so the recording's curves carry no noise from errors crossing zero."""
+    # highest and lowest energy between one kept step and the next, carried on: (len(kept), N) each
+    starts = np.concatenate([[0], kept[:-1] + 1])
+    highest = np.maximum.accumulate(np.maximum.reduceat(energies, starts, axis=0), axis=0)
+    lowest = np.minimum.accumulate(np.minimum.reduceat(energies, starts, axis=0), axis=0)
+    above, below = (engine.relative_energy_error(np.vstack([energies[:1], extreme]))[1:]
+                    for extreme in (highest, lowest))
+    worst = np.maximum(above, -below)
+    worst[~np.isfinite(worst)] = np.inf  # a diverged member sorts last
     with np.errstate(all="ignore"):  # a median of two errors near the float limit overflows to inf (not drawn)
-        return np.stack([relative.min(axis=1), np.median(relative, axis=1), relative.max(axis=1)], axis=1)
+        return np.stack([worst.min(axis=1), np.median(worst, axis=1), worst.max(axis=1)], axis=1)
 
 
 def spread(values: np.ndarray) -> dict | None:

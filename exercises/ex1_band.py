@@ -17,7 +17,6 @@ from curriculum.common.exercise import start
 start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
 
 import argparse
-import re
 
 import numpy as np
 
@@ -25,55 +24,15 @@ import engine
 import engine_ensembles
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
-from curriculum.common.predict import OneOf, ask, explain, template, verdict
+from curriculum.common.predict import PerName, ask, explain, verdict
 
 NAMES = list(engine.CHAPTER_INTEGRATORS)  # the chapter's three
 WORDS = ["grows", "stays"]  # grows with the run, or stays in a band
 # The question's own phrases, and the chapter's word for a band, read as the two answers.
-SAYINGS = {"band": "stays", "in a band": "stays", "stays in a band": "stays", "stay in a band": "stays",
-           "bounded": "stays", "grows with the run": "grows", "grow with the run": "grows", "unbounded": "grows"}
 HORIZONS = [1, 2, 4, 8, 16]  # multiples of the chapter's run
 CHAPTER_STEPS, DT = 2000, 0.01
 BAND_SLACK = 0.01  # a range that widens by less than 1% when the run doubles has stopped: a band
 SEEDS = range(1000)  # is RK4's sign seed 0's? asked of these seeds, stepped as one batch
-
-
-class EachOf:
-    """One word per name: 'euler=grows, semi-implicit: stays, RK4 = grows' (any spacing, order, case).
-
-    curriculum.common.predict.PerName takes a number per name; this is the same form with words,
-    read by the shared OneOf."""
-
-    def __init__(self, names, words):
-        self.names, self.words = OneOf(names), OneOf(words)
-        self.forms = (f"name=word for each of {', '.join(names)}, separated by commas,"
-                      f" each word one of {', '.join(words)} ({template(names, 'word')})")
-
-    def parse(self, text: str) -> dict:
-        prediction = {}
-        # commas or semicolons between items; where a part holds several items, a space before a name also does
-        parts = [part.strip() for part in re.split(r"[,;]", text)]
-        items = [item for part in parts
-                 for item in (re.split(r"\s+(?=[\w-]+\s*[=:])", part) if len(re.findall("[=:]", part)) > 1 else [part])]
-        for item in filter(None, items):
-            match = re.fullmatch(r"([^=:]*?)\s*[=:]\s*(.*)", item)
-            if not match:
-                raise ValueError(f"{item!r} has no '=': expected {self.forms}")
-            name_text, word_text = match.groups()
-            if not word_text.strip():
-                raise ValueError(f"in {item!r}, no word after the '=': one of {', '.join(self.words.names)}")
-            if word_text.strip() in ("?", "..."):
-                raise ValueError(f"in {item!r}, put your word where the {word_text.strip()} is:"
-                                 f" one of {', '.join(self.words.names)}")
-            saying = " ".join(re.split(r"[\s_-]+", word_text.strip().lower()))
-            name, word = self.names.parse(name_text), self.words.parse(SAYINGS.get(saying, word_text))
-            if name in prediction:
-                raise ValueError(f"{name} is given twice")
-            prediction[name] = word
-        missing = [name for name in self.names.names if name not in prediction]
-        if missing:
-            raise ValueError(f"no answer for {', '.join(missing)}: expected {self.forms}")
-        return {name: prediction[name] for name in self.names.names}
 
 
 def measure(seed: int = 0) -> dict:
@@ -124,7 +83,7 @@ def main(argv=None) -> int:
                            formatter_class=argparse.RawDescriptionHelpFormatter)
     prediction = ask(parser, f"The chapter's orbit, run {', '.join(f'{h}x' for h in HORIZONS[:-1])} and"
                      f" {HORIZONS[-1]}x as long as its {CHAPTER_STEPS:,} steps: for each integrator, does the energy"
-                     " error grow with the run, or stay in a band?", EachOf(NAMES, WORDS), argv)
+                     " error grow with the run, or stay in a band?", PerName(NAMES, WORDS), argv)
 
     table = measure()
     print_table(table)

@@ -17,18 +17,17 @@ start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs
 
 import argparse
 import math
-import re
 from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
 
 import engine
-import engine_recording
+from curriculum.common import recording as course
 from curriculum.common import write_atomic
 from curriculum.common.cli import OneLineParser, recording_wanted
 from curriculum.common.outputs import folder_problem, one_line_failures
-from curriculum.common.predict import OneOf, ask, explain, template, verdict
+from curriculum.common.predict import PerName, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
 STEPS, DT, COARSE_DT = 2000, 0.01, 0.1
@@ -140,75 +139,62 @@ def modified_energy_drift(x: np.ndarray, v: np.ndarray, dt: float) -> tuple[floa
 # --- the recording ---
 
 def record(path: Path, table: dict) -> None:
-    """The blob's edge in the (x, v_x) plane on the `step` timeline, one colour per integrator,
-    and beside it log10 of the area's change. Built in memory, then written atomically (write_atomic).
+    """The blob's edge in the (x, v_x) plane on the `step` timeline, one colour per integrator, the
+    starting disc in grey, and beside it log10 of each area's change. Built in memory, then written
+    atomically (write_atomic); it opens the course's way (curriculum/common/recording.py).
 
-    Drag the timeline: the three blobs circle the origin together, explicit Euler's swelling
-    outwards; on the right each integrator's area change is a line of its own."""
+    The file opens on the last step: explicit Euler's blob swollen and far out, the other two on top of
+    each other where the disc would be. Drag the timeline: the three circle the origin together."""
     import rerun as rr
     import rerun.blueprint as rrb
 
-    blueprint = rrb.Blueprint(rrb.Horizontal(
-        rrb.Spatial2DView(origin="phase", name="the blob in (x, v_x)",
-                          visual_bounds=rrb.VisualBounds2D(x_range=[-2.0, 2.0], y_range=[-3.5, 3.5])),
-        rrb.TimeSeriesView(origin="area", name="log10 |area / area0 - 1|"),
-    ))
-    recording = rr.RecordingStream("zero2robot-ch3_3-ex5")
-    in_memory = recording.memory_recording()
-    try:
-        recording.send_blueprint(blueprint, make_active=False, make_default=True)
+    def flat(x, v):  # the (x, v_x) plane as z = 0 of a 3D view seen from above: v_x points up, as on paper
+        return np.stack([x, v, np.zeros_like(x)], axis=-1)
+
+    def fill(stream):
         every_k = EDGE_POINTS // RECORD_POINTS
-        # Rerun's 2D views point y down; we draw -v_x so that velocity points up, as on paper.
-        axes = [[[-1.8, 0.0], [1.8, 0.0]], [[0.0, 3.2], [0.0, -3.2]]]
-        recording.log("phase/axes", rr.LineStrips2D(axes, colors=[[120, 120, 120]], labels=["x", "v_x"]), static=True)
+        frames = np.arange(0, STEPS + 1, RECORD_EVERY)
+        looks = course.looks(table)
+        edges = {name: flat(row["x"][frames][:, ::every_k], row["v"][frames][:, ::every_k])
+                 for name, row in table.items()}
+        start = next(iter(edges.values()))[0]
+        stream.log("phase/start", rr.LineStrips3D([np.vstack([start, start[:1]])], colors=[course.GREY],
+                                                  radii=rr.components.Radius.ui_points(1.5)), static=True)
+        # rk4's blob and semi_implicit's coincide: each is drawn a little wider and a little lower (z) than
+        # the next, so the thinner shows on top of the wider and both are seen
+        widths = course.layered_widths(edges, widest=6.0, thinnest=2.0)
+        for name, edge in edges.items():
+            edge[..., 2] = -0.001 * widths[name]
+            outline = rr.LineStrips3D.from_fields(colors=[looks[name].colour],
+                                                  radii=rr.components.Radius.ui_points(widths[name] / 2))
+            stream.log(f"phase/{name}", outline, static=True)
+            for i, shape in zip(frames, edge, strict=True):  # one closed outline per frame
+                stream.set_time("step", sequence=int(i))
+                stream.log(f"phase/{name}", rr.LineStrips3D([np.vstack([shape, shape[:1]])]))
+        low, high = course.extent(edges.values())
+        span = float(max(high[0] - low[0], high[1] - low[1]))
+        reach_low, reach_high = np.minimum(low, 0.0) - 0.08 * span, np.maximum(high, 0.0) + 0.08 * span
+        course.log_axes(stream, "phase/axes", reach_low, reach_high, ("x", "v_x"))
+        axes_box = np.array([reach_low, reach_high])
+        key = course.log_key(stream, "phase/key", looks, [*edges.values(), axes_box])
+        plane = course.from_above("phase", "the blob in (x, v_x), grey: where it started",
+                                  [*edges.values(), axes_box, key], margin=1.3)
+
+        changes = []
         for name, row in table.items():
-            color = engine_recording.COLORS[name]
-            recording.log(f"area/{name}", rr.SeriesLines(colors=[color], names=[name]), static=True)
-            for i in range(0, len(row["areas"]), RECORD_EVERY):
-                edge = np.stack([row["x"][i, ::every_k], -row["v"][i, ::every_k]], axis=1)
-                recording.set_time("step", sequence=i)
-                recording.log(f"phase/{name}", rr.LineStrips2D([np.vstack([edge, edge[:1]])], colors=[color],
-                                                               labels=[name]))
-            changed = np.abs(row["ratios"]) > 0.0
-            steps = np.flatnonzero(changed)
-            recording.send_columns(f"area/{name}", indexes=[rr.TimeColumn("step", sequence=steps)],
-                                   columns=rr.Scalars.columns(scalars=np.log10(np.abs(row["ratios"][steps]))))
-    finally:
-        data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
-    write_atomic(path, data)
+            with np.errstate(divide="ignore"):  # an unchanged area has no logarithm: left out
+                change = np.log10(np.abs(row["ratios"]))
+            changes.append(course.log_series(stream, f"area/{name}", np.arange(len(change)), change, looks[name]))
+        low, high = course.padded(changes)
+        # room above the curves for the legend: the floor of round-off fills the bottom edge to edge
+        area = course.time_series("area", "log10 |area / area0 - 1|", STEPS, legend="RightTop",
+                                  y_range=(low, high + 0.12 * (high - low)))
+        return course.opening(rrb.Horizontal(plane, area), STEPS)
+
+    write_atomic(path, course.recorded("zero2robot-ch3_3-ex5", fill))
 
 # --- the exercise ---
 
-class EachOf:
-    """One word per name: 'euler=grows, semi-implicit: stays, RK4 = shrinks' (any spacing, order, case).
-
-    The answer form of predict.py's PerName, with words where PerName takes numbers."""
-
-    def __init__(self, names, words):
-        self.names, self.words = OneOf(names), OneOf(words)
-        self.forms = (f"name=word for each of {', '.join(names)}, separated by commas,"
-                      f" each word one of {', '.join(words)} ({template(names, 'word')})")
-
-    def parse(self, text: str) -> dict:
-        prediction = {}
-        for item in filter(None, (part.strip() for part in re.split(r"[,;]", text))):
-            match = re.fullmatch(r"([^=:]*?)\s*[=:]\s*(.*)", item)
-            if not match:
-                raise ValueError(f"{item!r} has no '=': expected {self.forms}")
-            name_text, word_text = match.groups()
-            if re.search(r"[=:]", word_text):
-                raise ValueError(f"{item!r} holds two answers: put a comma between them")
-            if word_text.strip() in ("?", "..."):
-                raise ValueError(f"in {item!r}, put your word where the {word_text.strip()} is:"
-                                 f" one of {', '.join(self.words.names)}")
-            name, word = self.names.parse(name_text), self.words.parse(word_text)
-            if name in prediction:
-                raise ValueError(f"{name} is given twice")
-            prediction[name] = word
-        missing = [name for name in self.names.names if name not in prediction]
-        if missing:
-            raise ValueError(f"no answer for {', '.join(missing)}: expected {self.forms}")
-        return prediction
 
 def rrd_problem(path: Path) -> str | None:
     """Why the recording cannot go to `path`, or None: it must be an .rrd file in a folder we can write,
@@ -228,7 +214,7 @@ def main(argv=None) -> int:
                         help="where the recording goes (default outputs/ch3.3-engine/ex5_blob.rrd)")
     guess = ask(parser, "A disc of starting states in the spring's (x, v_x) plane runs 2000 steps of dt 0.01"
                 " under each integrator. What happens to the disc's area under each one?",
-                EachOf(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv)
+                PerName(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv)
     args = parser.parsed
     args.rerun = recording_wanted(parser.prog, args.rerun)  # not under RERUN=off, Rerun's own switch
     problem = rrd_problem(args.rrd) if args.rerun else None

@@ -18,7 +18,6 @@ start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs
 
 import argparse
 import math
-import re
 
 import numpy as np
 
@@ -26,7 +25,7 @@ import engine
 import engine_damping
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
-from curriculum.common.predict import OneOf, ask, explain, verdict
+from curriculum.common.predict import SomeOf, ask, explain, verdict
 from exercises.support import stability_map
 
 DAMPING, DT, STEPS = 250.0, 0.01, 2000  # b in N s/m; 2000 steps is the chapter's run
@@ -35,40 +34,6 @@ MUJOCO_LINE = "d->qH[m->M_rowadr[i] + m->M_rownnz[i] - 1] += m->opt.timestep * d
 MAP_STIFFNESS = [4.0, 3.0, 2.5, 2.0, 1.5, 1.0, 0.5, 0.02]  # w = dt sqrt(k/m), top row stiffest
 MAP_DAMPING = [0.0, 0.001, 0.01, 0.1, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 5.0, 10.0, 100.0]  # c = dt b/m
 
-# What people call the four, each made one word; longest first ("semi-implicit Euler" before "implicit Euler").
-PHRASES = [(r"\b(semi[\s_-]*implicit|symplectic)([\s_-]+euler)?\b", "semi_implicit"),
-           (r"\b(explicit|forward)[\s_-]+euler\b", "euler"), (r"\bimplicit[\s_-]+euler\b", "implicit"),
-           (r"\brk[\s_-]*4\b", "rk4")]
-
-class SomeOf:
-    """Any number of names from a list, or none, or all: 'rk4, implicit', 'RK4 and implicit', 'none', 'all'."""
-
-    def __init__(self, names):
-        self.names = list(names)
-        self.forms = (f"the ones that stay bounded, from {', '.join(self.names)}, separated by commas"
-                      " (or 'none', or 'all')")
-
-    def parse(self, text: str) -> frozenset:
-        text = text.strip().lower()
-        for spoken, name in PHRASES:  # names of more than one word are one name, however spaced
-            text = re.sub(spoken, name, text)
-        words = [word for word in re.split(r"[,;+\s]+|\band\b", text) if word]
-        if words in (["none"], ["none", "of", "them"]):
-            return frozenset()
-        if words in (["all"], ["all", "of", "them"], ["all", "four"]):
-            return frozenset(self.names)
-        one = OneOf(self.names)
-        chosen = []
-        for word in words:
-            try:
-                chosen.append(one.parse(word))
-            except ValueError:
-                if word in ("none", "all"):
-                    raise ValueError(f"'{word}' goes alone: answer with {self.forms}") from None
-                raise ValueError(f"{word!r} is not an integrator here: answer with {self.forms}") from None
-        if not chosen:
-            raise ValueError(f"the answer is empty: answer with {self.forms}")
-        return frozenset(chosen)
 
 def measure(damping: float = DAMPING) -> dict:
     """{integrator: (bounded, blew up at step or None, worst |q - exact|)} on the chapter's damped spring."""
@@ -108,7 +73,7 @@ def main(argv=None) -> int:
     prediction = ask(parser,
                      f"The chapter's spring (k = 4 N/m, m = 1 kg) with a damper of b = {DAMPING:g} N s/m, run for"
                      f" {STEPS} steps of {DT * 1000:g} ms: which of {', '.join(NAMES)} stay bounded?",
-                     SomeOf(NAMES), argv)
+                     SomeOf(NAMES, "the ones that stay bounded", "an integrator"), argv)
 
     results = measure()
     k, m = 4.0, 1.0

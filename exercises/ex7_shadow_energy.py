@@ -21,7 +21,6 @@ from curriculum.common.exercise import start
 start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
 
 import argparse
-import re
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +28,7 @@ import numpy as np
 from curriculum.common import write_atomic
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
-from curriculum.common.predict import OneOf, ask, explain, template, verdict
+from curriculum.common.predict import PerName, ask, explain, verdict
 from exercises.support import shadow
 from exercises.support.shadow import DT, STEPS, SYSTEMS
 
@@ -88,39 +87,6 @@ def other_integrators() -> dict:
             for name in ("spring", "orbit") for integrator in ("euler", "rk4")}
 
 
-class EachOf:
-    """One word per system: 'spring=roundoff, orbit: smaller, Freefall = as far' (any spacing, order, case).
-
-    Exercise 5's answer form, copied here so that importing exercise 5 (whose first line installs its own
-    signal guard) is never needed; it goes when predict.py's PerName reads words (helper learner's issue)."""
-
-    def __init__(self, names, words):
-        self.names, self.words = OneOf(names), OneOf(words)
-        self.forms = (f"name=word for each of {', '.join(names)}, separated by commas,"
-                      f" each word one of {', '.join(words)} ({template(names, 'word')})")
-
-    def parse(self, text: str) -> dict:
-        prediction = {}
-        for item in filter(None, (part.strip() for part in re.split(r"[,;]", text))):
-            match = re.fullmatch(r"([^=:]*?)\s*[=:]\s*(.*)", item)
-            if not match:
-                raise ValueError(f"{item!r} has no '=': expected {self.forms}")
-            name_text, word_text = match.groups()
-            if re.search(r"[=:]", word_text):
-                raise ValueError(f"{item!r} holds two answers: put a comma between them")
-            if word_text.strip() in ("?", "..."):
-                raise ValueError(f"in {item!r}, put your word where the {word_text.strip()} is:"
-                                 f" one of {', '.join(self.words.names)}")
-            name, word = self.names.parse(name_text), self.words.parse(word_text)
-            if name in prediction:
-                raise ValueError(f"{name} is given twice")
-            prediction[name] = word
-        missing = [name for name in self.names.names if name not in prediction]
-        if missing:
-            raise ValueError(f"no answer for {', '.join(missing)}: expected {self.forms}")
-        return {name: prediction[name] for name in self.names.names}
-
-
 @one_line_failures("exercises.ex7_shadow_energy")  # Ctrl-C or a closed stdout: one line, no traceback
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex7_shadow_energy", description=__doc__,
@@ -128,7 +94,7 @@ def main(argv=None) -> int:
     parser.add_argument("--no-rerun", dest="rerun", action="store_false", help="skip writing the recording")
     parser.add_argument("--rrd", type=Path, metavar="PATH", default=DEFAULT_RRD,
                         help=f"where the recording goes (default {DEFAULT_RRD})")
-    guess = ask(parser, QUESTION, EachOf(list(SYSTEMS), CHOICES), argv)
+    guess = ask(parser, QUESTION, PerName(list(SYSTEMS), CHOICES), argv)
     args = parser.parsed
     if args.rerun:
         from exercises.support.shadow_recording import rrd_problem

@@ -11,6 +11,7 @@ import pytest
 
 import engine
 from conftest import REPO
+from curriculum.common import recording as course
 from exercises import ex5_phase_blob as ex5
 
 
@@ -173,12 +174,35 @@ def test_as_a_student_runs_it_with_the_recording(tmp_path):
         assert sorted(frames) == list(range(0, ex5.STEPS + 1, ex5.RECORD_EVERY))
 
 
-def test_two_answers_without_a_comma_between_them_are_named():
-    each = ex5.EachOf(list(engine.CHAPTER_INTEGRATORS), ex5.CHOICES)
-    assert each.parse("euler:grows; semi implicit = stays, RK-4=shrinks") == {
-        "euler": "grows", "semi_implicit": "stays", "rk4": "shrinks"}
-    with pytest.raises(ValueError, match="holds two answers: put a comma between them"):
-        each.parse("euler=grows, rk4 = shrinks semi_implicit=stays")
-    with pytest.raises(ValueError, match="put your word where the \\? is"):
-        each.parse("euler=?, semi_implicit=?, rk4=?")
+def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(chapter_table, tmp_path):
+    """Like engine.py's: the whole run, the cursor on the last step, panels closed; every frame of every blob
+    inside the camera's view, the axes named at their own tips, a key naming each integrator in its colour."""
+    rrb = pytest.importorskip("rerun.blueprint")
+    from test_recording import column, packed, read_recording, views_of
 
+    ex5.record(tmp_path / "blob.rrd", chapter_table)
+    _, entities, settings = read_recording(tmp_path / "blob.rrd")
+    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    assert settings["/selection_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    time_panel = settings["/time_panel"]
+    assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
+    assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
+    assert time_panel["TimePanelBlueprint:fps"] * course.PLAYBACK_SECONDS == pytest.approx(ex5.STEPS)
+
+    views = views_of(settings)
+    assert set(views) == {("3D", "phase"), ("TimeSeries", "area")}
+    assert views[("TimeSeries", "area")]["TimeAxis:view_range"] == {"start": 0, "end": ex5.STEPS}
+    camera = views[("3D", "phase")]
+    target, eye = np.array(camera["EyeControls3D:look_target"]), np.array(camera["EyeControls3D:position"])
+    assert eye[1] == pytest.approx(target[1]) and eye[2] > target[2], "straight down: v_x up the screen"
+    looks = course.looks(chapter_table)
+    for name, look in looks.items():
+        frames = column(entities[f"/phase/{name}"], "LineStrips3D:strips")
+        assert len(frames) == len(range(0, ex5.STEPS + 1, ex5.RECORD_EVERY))
+        edges = np.array([strip for frame in frames for strip in frame]).reshape(-1, 3)
+        assert (np.abs(edges[:, :2] - target[:2]) < (eye[2] - target[2]) / 2).all(), f"{name}: every frame framed"
+        assert column(entities[f"/phase/{name}"], "LineStrips3D:colors")[0] == [packed(look.colour)]
+    (names,) = column(entities["/phase/axes/names"], "Points3D:labels")
+    tips = np.array(column(entities["/phase/axes/names"], "Points3D:positions")[0])
+    assert names == ["x", "v_x"] and tips[0, 0] > 0 and tips[0, 1] == 0 and tips[1, 1] > 0 and tips[1, 0] == 0
+    assert column(entities["/phase/key"], "Points3D:labels")[0] == [look.label for look in looks.values()]

@@ -11,6 +11,7 @@ import pytest
 import engine
 import engine_ensembles
 import engine_recording
+from curriculum.common import recording as course
 
 rerun_chunk = pytest.importorskip("rerun.chunk", reason="rerun-sdk is a core dependency; install the project")
 rrb = pytest.importorskip("rerun.blueprint")
@@ -67,11 +68,11 @@ def views_of(settings):
 def recorded(tmp_path_factory):
     """Each system's default run: what the recording holds, and the same run simulated here."""
     cases = {}
-    for name in engine.SYSTEMS:
+    for name in (*engine.SYSTEMS, *engine.DAMPED_SYSTEMS):
         out = tmp_path_factory.mktemp(name)
         assert engine.main(["--system", name, "--out", str(out)]) == 0
         system = engine.build_system(name, np.random.default_rng(0))
-        runs = {i: engine.run(name, i, DT, STEPS) for i in engine.integrators_for(system)}
+        runs = {i: engine.simulate(step, system, DT, STEPS) for i, step in engine.integrators_for(system).items()}
         cases[name] = (*read_recording(out / engine.RECORDING_FILE), system, runs)
     return cases
 
@@ -86,7 +87,7 @@ def test_application_id_is_valid_and_there_is_one_recording(recorded):
 def test_each_body_travels_its_run_step_by_step_along_its_whole_path(recorded, system_name):
     _, entities, _, _, runs = recorded[system_name]
     view = {"orbit": "orbit", "spring": "phase"}[system_name]
-    bodies, labels = {}, {}
+    looks = course.looks(runs)
     for name, (positions, velocities, _) in runs.items():
         # the orbit's bodies move in space; the spring's in the phase plane (x, v_x)
         shown = positions if system_name == "orbit" else np.stack(
@@ -94,27 +95,11 @@ def test_each_body_travels_its_run_step_by_step_along_its_whole_path(recorded, s
         body = entities[f"/{view}/{name}/body"]
         assert column(body, "step") == list(range(STEPS + 1)), "one position per step, on the step timeline"
         np.testing.assert_array_equal(np.concatenate(column(body, "Points3D:positions")), shown.astype(np.float32))
-        assert column(body, "Points3D:colors")[0] == [packed(engine_recording.COLORS[name])]
+        assert column(body, "Points3D:colors")[0] == [packed(looks[name].colour)]
 
         (trail,) = column(entities[f"/{view}/{name}/trail"], "LineStrips3D:strips")[0]
         np.testing.assert_array_equal(np.array(trail), shown.astype(np.float32))
-        colour = [packed(engine_recording.COLORS[name])]
-        assert column(entities[f"/{view}/{name}/trail"], "LineStrips3D:colors")[0] == colour
-
-        label = entities[f"/{view}/{name}/label"]
-        assert column(label, "Points3D:labels")[0] == [engine_recording.LABELS[name]]
-        assert column(label, "Points3D:colors")[0] == [packed(engine_recording.COLORS[name])]
-        assert column(label, "step") == list(range(STEPS + 1))
-        riding = np.concatenate(column(label, "Points3D:positions")) - shown.astype(np.float32)
-        assert np.allclose(riding[:, [0, 2]], 0.0), "the label moves with its body, only lifted up or down"
-        bodies[name], labels[name] = shown[:, 1], shown[:, 1] + riding[:, 1]
-    # Three readable labels at every step, even where the bodies sit on one another (all of them at
-    # step 0): in the bodies' own up-down order, each at least one label-gap above the next.
-    bodies, labels = np.stack(list(bodies.values()), axis=1), np.stack(list(labels.values()), axis=1)
-    order = np.argsort(bodies, axis=1, kind="stable")
-    gaps = np.diff(np.take_along_axis(labels, order, axis=1), axis=1)
-    assert gaps[0].min() > 0.05, "the bodies start together, so their labels stack one gap apart"
-    assert (gaps >= gaps[0].min() * 0.999).all()
+        assert column(entities[f"/{view}/{name}/trail"], "LineStrips3D:colors")[0] == [packed(looks[name].colour)]
 
 
 def test_a_batchs_exact_motion_is_each_members_own():
@@ -127,10 +112,35 @@ def test_a_batchs_exact_motion_is_each_members_own():
         np.testing.assert_array_equal(batched[:, i], member["exact"](member["q0"], member["v0"], times))
 
 
+@pytest.mark.parametrize("system_name", ["orbit", "spring", "damped_spring"])
+def test_the_key_names_every_integrator_in_its_colour_beside_the_paths_and_in_the_frame(recorded, system_name):
+    """The labels stand in a column right of every path, one row apart: never on a trail (RK4's on the spring's
+    red trails), never piled on one another (the damped spring's four at the origin)."""
+    _, entities, settings, _, runs = recorded[system_name]
+    view = {"orbit": "orbit", "spring": "phase", "damped_spring": "phase"}[system_name]
+    looks = course.looks(runs)
+    key = entities[f"/{view}/key"]
+    assert column(key, "Points3D:labels")[0] == [look.label for look in looks.values()]
+    assert column(key, "Points3D:colors")[0] == [packed(look.colour) for look in looks.values()]
+    spots = np.array(column(key, "Points3D:positions")[0])
+    trails = np.concatenate([np.array(column(entities[f"/{view}/{name}/trail"], "LineStrips3D:strips")[0][0])
+                             for name in runs])
+    span = np.ptp(trails[:, :2], axis=0).max()
+    assert (spots[:, 0] > trails[:, 0].max() + 0.1 * span).all(), "right of every path, clear of the trails"
+    assert (np.diff(spots[:, 1]) < -0.05 * span).all(), "one row per name, top to bottom, apart"
+    props = views_of(settings)[("3D", view)]
+    target, eye = np.array(props["EyeControls3D:look_target"]), np.array(props["EyeControls3D:position"])
+    half = (eye[2] - target[2]) / 2.0  # the least the camera frames either side of its target, from its height
+    assert (np.abs(spots[:, :2] - target[:2]) < half).all(), "the key is inside the framed view"
+
+
 def test_orbit_position_error_is_measured_against_keplers_exact_orbit(recorded):
     _, entities, _, system, runs = recorded["orbit"]
     steps = np.arange(STEPS + 1)
     exact = engine.kepler_orbit(system["q0"], system["v0"], steps * DT, system["mu"])  # Kepler's equation
+
+
+    exact = system["exact"](system["q0"], system["v0"], steps * DT)  # Kepler's equation, solved in engine.py
     finals = {}
     for name, (positions, _, _) in runs.items():
         series = entities[f"/position_error/{name}"]
@@ -139,7 +149,7 @@ def test_orbit_position_error_is_measured_against_keplers_exact_orbit(recorded):
         assert logged_steps == [i for i in steps if miss[i] > 1e-14], "only step 0, where the error is 0, has no log"
         logged = np.ravel(column(series, "Scalars:scalars"))
         np.testing.assert_allclose(logged[1:], np.log10(miss[logged_steps[1:]]), atol=1e-3)
-        assert column(series, "SeriesLines:colors")[0] == [packed(engine_recording.COLORS[name])]
+        assert column(series, "SeriesLines:colors")[0] == [packed(course.looks(runs)[name].colour)]
         finals[name] = logged[-1]
     # metres off after 20 s: Euler by its whole radius, semi-implicit by millimetres, RK4 by nanometres
     assert finals["euler"] > -0.5 and -4 < finals["semi_implicit"] < -1 and finals["rk4"] < -7
@@ -154,7 +164,7 @@ def test_energy_error_is_the_log_of_the_relative_drift_step_for_step(recorded, s
         steps = column(series, "step")
         assert steps == [i for i in range(STEPS + 1) if rel[i] > 0]  # exact zeros have no logarithm
         np.testing.assert_array_equal(np.ravel(column(series, "Scalars:scalars")), np.log10(rel[steps]))
-        assert column(series, "SeriesLines:names")[0] == [engine_recording.LABELS[name]]
+        assert column(series, "SeriesLines:names")[0] == [course.looks(runs)[name].label]
 
 
 def test_freefall_shows_the_signed_energy_change_and_the_height(recorded):
@@ -199,13 +209,15 @@ def test_each_system_opens_on_its_own_views_and_every_plot_on_the_whole_run(reco
         assert props["PlotInteraction:tooltip_mode"] == rrb.components.TooltipMode.All.value
 
 
-@pytest.mark.parametrize("system_name", ["orbit", "spring"])
-def test_the_camera_looks_down_on_every_path(recorded, system_name):
+@pytest.mark.parametrize("system_name", ["orbit", "spring", "damped_spring"])
+def test_the_camera_looks_down_on_every_path_and_the_key(recorded, system_name):
+    """Centred on the box around every trail, the key and the axes' names, and high enough to frame it."""
     _, entities, settings, _, _ = recorded[system_name]
-    origin = {"orbit": "orbit", "spring": "phase"}[system_name]
+    origin = {"orbit": "orbit", "spring": "phase", "damped_spring": "phase"}[system_name]
     props = views_of(settings)[("3D", origin)]
-    points = np.concatenate([np.array(column(b, "LineStrips3D:strips")[0][0])
-                             for path, b in entities.items() if path.endswith("/trail")])
+    drawn = [np.array(strip) for path, b in entities.items() if path.endswith("/trail") or path == f"/{origin}/axes"
+             for strip in column(b, "LineStrips3D:strips")[0]]
+    points = np.concatenate([*drawn, np.array(column(entities[f"/{origin}/key"], "Points3D:positions")[0])])
     target, eye = np.array(props["EyeControls3D:look_target"]), np.array(props["EyeControls3D:position"])
     np.testing.assert_allclose(target[:2], (points.min(axis=0)[:2] + points.max(axis=0)[:2]) / 2, atol=1e-6)
     span = (points.max(axis=0) - points.min(axis=0))[:2].max()
@@ -221,7 +233,7 @@ def test_side_panels_are_folded_and_the_file_opens_on_the_last_step(recorded, sy
     assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
     assert time_panel["TimePanelBlueprint:timeline"] == "step"
     assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
-    assert time_panel["TimePanelBlueprint:fps"] * engine_recording.PLAYBACK_SECONDS == pytest.approx(STEPS)
+    assert time_panel["TimePanelBlueprint:fps"] * course.PLAYBACK_SECONDS == pytest.approx(STEPS)
 
 
 @pytest.mark.slow
@@ -244,9 +256,20 @@ def test_a_system_without_its_own_views_gets_the_energy_error_and_its_position_e
     assert set(engine_recording.RECORDED_VIEWS) <= {*engine.SYSTEMS, *engine.DAMPED_SYSTEMS}
     orbit = engine.build_system("orbit", np.random.default_rng(0))
     unknown = {**orbit, "name": "unlisted"}
-    energy, position = engine_recording.log_energy_error, engine_recording.log_position_error
-    assert engine_recording.views_for(unknown) == (energy, position)
-    assert engine_recording.views_for({**unknown, "exact": None}) == (energy,)
+    paths, energy = engine_recording.log_paths, engine_recording.log_energy_error
+    assert engine_recording.views_for(unknown) == (paths, energy, engine_recording.log_position_error)
+    assert engine_recording.views_for({**unknown, "exact": None}) == (paths, energy)
+
+
+def test_a_system_without_its_line_records_its_paths_and_energy_error(tmp_path):
+    """A maintainer adds a system (say an anharmonic spring, no exact motion) and has not chosen its views yet."""
+    system = {**engine.build_system("spring", np.random.default_rng(0)), "name": "anharmonic", "exact": None}
+    runs = {name: engine.simulate(step, system, DT, 100) for name, step in engine.integrators_for(system).items()}
+    data, _ = engine_recording.record(system, runs, engine.kept_steps(100), DT, run_id="new-system")
+    (tmp_path / "new.rrd").write_bytes(data)
+    _, entities, settings = read_recording(tmp_path / "new.rrd")
+    assert set(views_of(settings)) == {("3D", "paths"), ("TimeSeries", "energy_error")}
+    assert {f"/paths/{name}/trail" for name in runs} <= set(entities)
 
 
 def test_the_damped_spring_opens_on_its_phase_plane_beside_its_error_against_the_exact_motion(tmp_path):
@@ -278,3 +301,86 @@ def test_the_phase_plane_draws_the_exact_motion_under_the_integrators(tmp_path, 
     if system_name == "spring":  # x = x0 cos(2t): v = -2 x0 sin(2t)
         np.testing.assert_allclose(exact[:, 1], -2.0 * system["q0"][0] * np.sin(2.0 * times), atol=1e-5)
     assert (exact[:, 2] < 0).all(), "a hair below the plane, so the integrators' lines lie on top"
+
+
+def test_an_integrator_the_course_has_no_colour_for_records_in_a_spare_colour_under_its_own_name(tmp_path):
+    """A maintainer adds an integrator (say velocity Verlet) and forgets the recording: it still records."""
+    system = engine.build_system("orbit", np.random.default_rng(0))
+    runs = {name: engine.simulate(step, system, DT, 200) for name, step in engine.integrators_for(system).items()}
+    runs["verlet"] = runs["rk4"]
+    data, _ = engine_recording.record(system, runs, engine.kept_steps(200), DT, run_id="new-name")
+    (tmp_path / "new.rrd").write_bytes(data)
+    _, entities, _ = read_recording(tmp_path / "new.rrd")
+    colours = {name: column(entities[f"/orbit/{name}/trail"], "LineStrips3D:colors")[0][0] for name in runs}
+    assert len(set(colours.values())) == len(runs), "every integrator its own colour"
+    assert colours["verlet"] == packed(course.SPARE_COLOURS[0])
+    assert column(entities["/orbit/key"], "Points3D:labels")[0][-1] == "verlet"
+    assert column(entities["/energy_error/verlet"], "SeriesLines:names")[0] == ["verlet"]
+
+
+def test_the_ensemble_plots_each_members_worst_error_so_far_over_every_step():
+    """Best, median and worst member of max over steps 0..k of |E - E0| / |E0|, against a plain loop;
+    with every=7 the steps between kept ones count too."""
+    rng = np.random.default_rng(3)
+    energies = 1.0 + np.cumsum(rng.normal(0.0, 1e-3, (50, 5)), axis=0)
+    energies[0] = 1.0
+    energies[30:, 4] = np.nan  # a member that diverged at step 30
+    kept = engine.kept_steps(49, 7)
+    spread = engine_ensembles.error_spread(energies, kept)
+    for row, k in enumerate(kept):
+        worst = [np.max(np.abs(energies[: k + 1, i] - 1.0)) if np.isfinite(energies[: k + 1, i]).all() else np.inf
+                 for i in range(5)]
+        np.testing.assert_allclose(spread[row], [min(worst), np.median(worst), max(worst)], rtol=1e-12)
+    assert (spread[1:] >= spread[:-1]).all(), "a worst-so-far never falls: no spikes"
+
+
+def test_the_ensemble_plot_tells_every_curve_apart(tmp_path):
+    assert engine.main(["--ensemble", "12", "--steps", "300", "--out", str(tmp_path)]) == 0
+    _, entities, settings = read_recording(tmp_path / engine.RECORDING_FILE)
+    looks = course.looks(engine.integrators_for(engine.build_system("orbit", np.random.default_rng(0))))
+    legend = {}
+    for name, look in looks.items():
+        for which, width in (("min", 1.0), ("median", 3.5), ("max", 1.0)):
+            series = entities[f"/ensemble_error/{name}/{which}"]
+            assert column(series, "SeriesLines:colors")[0] == [packed(look.colour)]
+            assert column(series, "SeriesLines:widths")[0] == [width], "the median thick, the spread thin"
+            (label,) = column(series, "SeriesLines:names")[0]
+            legend.setdefault(label, set()).add(which)
+            assert (np.diff(np.ravel(column(series, "Scalars:scalars"))) >= 0).all(), f"{name} {which} never falls"
+    assert sorted(map(sorted, legend.values())) == [["max", "min"]] * 3 + [["median"]] * 3, \
+        "one legend entry per median, one shared by each integrator's best and worst member"
+    assert len(set(legend)) == 6
+    (key_names,) = column(entities["/ensemble_paths/key"], "Points3D:labels")
+    assert key_names == [look.label for look in looks.values()]
+    assert ("3D", "ensemble_paths") in views_of(settings)
+
+
+def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
+    """curriculum/common/recording.py as its docstring shows it (exercise 7's shape): a few lines, the opening."""
+    steps = np.arange(301)
+    errors = {"orbit": {"euler": steps * 1e-3, "verlet": np.cos(steps / 10.0)},
+              "spring": {"rk4": np.full(301, np.nan), "semi_implicit": -steps * 1e-4}}
+
+    def fill(stream):
+        views = []
+        for system, curves in errors.items():
+            look = course.looks(curves)
+            logged = [course.log_series(stream, f"{system}/{n}", steps, curves[n], look[n]) for n in curves]
+            views.append(course.time_series(system, f"{system}: (E - E0) / |E0|", steps[-1], logged))
+        return course.opening(views, steps[-1])
+
+    (tmp_path / "api.rrd").write_bytes(course.recorded("zero2robot-test", fill))
+    recording, entities, settings = read_recording(tmp_path / "api.rrd")
+    assert recording.application_id == "zero2robot-test"
+    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
+    views = views_of(settings)
+    assert set(views) == {("TimeSeries", "orbit"), ("TimeSeries", "spring")}
+    assert views[("TimeSeries", "orbit")]["TimeAxis:view_range"] == {"start": 0, "end": 300}
+    low, high = views[("TimeSeries", "orbit")]["ScalarAxis:range"]
+    assert low < -0.99 and high > 0.99, "fitted to every value logged"
+    assert column(entities["/orbit/verlet"], "SeriesLines:names")[0] == ["verlet"]
+    drawn = [row for b in entities["/spring/rk4"] if "Scalars:scalars" in b.schema.names
+             for row in b.column("Scalars:scalars").to_pylist()]
+    assert drawn == [], "NaN is left out, not drawn"
+    assert len(column(entities["/spring/semi_implicit"], "Scalars:scalars")) == 301

@@ -1,9 +1,10 @@
-"""See the recording as a student does: run engine.py, open each .rrd in the real Rerun viewer, save PNGs.
+"""See the recordings as a student does: run engine.py and exercise 5, open each .rrd in the real viewer, save PNGs.
 
 pytest does not collect this file (it is not named test_*). Run it from the repo root with the project's
 environment active:
 
-    python tools/screenshots.py            # four PNGs in outputs/screenshots/, then look at every one
+    python tools/screenshots.py            # seven PNGs in outputs/screenshots/, then look at every one
+    python tools/screenshots.py ex5 spring # some of them
     python tools/screenshots.py --docs     # also refresh the README's pictures in docs/
 
 The viewer runs on a virtual screen: Debian's xvfb and mesa-vulkan-drivers (and xdotool, to park the
@@ -22,12 +23,17 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 WINDOW = (1600, 1000)  # logical points; the viewer renders at 2x, so the PNG is 3200 x 2000
-# name: engine.py flags. The first two are the README's pictures.
+# name: the command that writes the recording ({out} is a scratch folder), and the recording it writes there.
+# The first two are the README's pictures.
 CASES = {
-    "orbit": ["--system", "orbit"],
-    "freefall": ["--system", "freefall"],
-    "spring": ["--system", "spring"],
-    "orbit-200k": ["--system", "orbit", "--steps", "200000"],
+    "orbit": (["engine.py", "--system", "orbit", "--out", "{out}"], "engine.rrd"),
+    "freefall": (["engine.py", "--system", "freefall", "--out", "{out}"], "engine.rrd"),
+    "spring": (["engine.py", "--system", "spring", "--out", "{out}"], "engine.rrd"),
+    "damped_spring": (["engine.py", "--system", "damped_spring", "--out", "{out}"], "engine.rrd"),
+    "orbit-ensemble-200": (["engine.py", "--system", "orbit", "--ensemble", "200", "--out", "{out}"], "engine.rrd"),
+    "orbit-200k": (["engine.py", "--system", "orbit", "--steps", "200000", "--out", "{out}"], "engine.rrd"),
+    "ex5": (["-m", "exercises.ex5_phase_blob", "--predict", "euler=grows, semi_implicit=stays, rk4=shrinks",
+             "--rrd", "{out}/ex5_blob.rrd"], "ex5_blob.rrd"),
 }
 DOCS = {"orbit": "recording-orbit.png", "freefall": "recording-freefall.png"}
 DOCS_WIDTH = 1200  # README pictures are scaled down and palette-quantized to stay small
@@ -72,9 +78,10 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as scratch:
         for name in args.cases or CASES:
             run_dir = Path(scratch) / name
-            subprocess.run([sys.executable, "engine.py", *CASES[name], "--out", str(run_dir)], cwd=ROOT, check=True,
+            command, recording = CASES[name]
+            subprocess.run([sys.executable, *(part.format(out=run_dir) for part in command)], cwd=ROOT, check=True,
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            rrd = run_dir / "engine.rrd"
+            rrd = run_dir / recording
             png = args.out / f"{name}.png"
             screenshot(rrd, png)
             print(f"{png}  ({rrd.stat().st_size / 1e6:.2f} MB recording)")

@@ -12,9 +12,13 @@ How an exercise uses it (ex4_long_run.py is a short example):
   answers and how to commit (four lines, no figure) and exits 0: asking is not an error. A
   prediction that does not parse gets one line on stderr that lists the accepted forms, and exit 2.
   Otherwise it returns the parsed prediction.
-- The answer forms read predictions the way people type them: `OneOf` (names, any case, '-' or ' '
-  for '_'), `Number` (`10000`, `10,000`, `10_000`, `1e4`) and `PerName` (`euler=8, rk4=1`, any
-  spacing, any order). Each has `.forms`, the sentence a refusal prints.
+- One parser reads every exercise's predictions the way people type them, in time linear in what was
+  typed (a megabyte of spaces is refused at once), and a refusal quotes at most 40 characters of it:
+  `OneOf` (one name: any case, '-' or ' ' for '_', and the names people use: 'backward Euler' is
+  implicit), `Number` (`10000`, `10,000`, `10_000`, `10 000`, `1e4`, `10k`; `1.000` reads two ways and
+  says so), `PerName` (`euler=8, rk4=1`: any spacing and order, ':' for '=', commas, semicolons or
+  just spaces between items; values numbers or words) and `SomeOf` (`rk4, implicit`, `RK4 and
+  implicit Euler`, `none`, `all`). Each has `.forms`, the sentence a refusal prints.
 - `verdict` and `explain` are the one place that prints the grade and the explanation, after the
   measurement. Keep measured answers out of the module docstring, --help and the question:
   tests/test_docs.py reads them for leaks.
@@ -27,88 +31,147 @@ import sys
 import textwrap
 from pathlib import Path
 
+# What people call the integrators and the answers, as the chapter, MuJoCo and textbooks write them; keys and
+# values are compared without case, spaces, '_' or '-' (see _name_key), so "Backward Euler" is backwardeuler.
+ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler",
+           "symplecticeuler": "semiimplicit", "semiimpliciteuler": "semiimplicit", "symplectic": "semiimplicit",
+           "impliciteuler": "implicit", "backwardeuler": "implicit",
+           "rungekutta": "rk4", "rungekutta4": "rk4", "classicalrungekutta": "rk4",
+           "grow": "grows", "stay": "stays", "shrink": "shrinks",
+           "band": "stays", "inaband": "stays", "staysinaband": "stays", "stayinaband": "stays", "bounded": "stays",
+           "growswiththerun": "grows", "growwiththerun": "grows", "unbounded": "grows"}
+LONGEST_NAME = 4  # words: "classical runge kutta 4"
+SEPARATORS = ",;"  # between the items of a list; within an item, spaces
+
+
+class TwoReadings(ValueError):
+    """A number that means different things on either side of the Channel, such as 1.000."""
+
 
 class OneOf:
-    """One name from a fixed list: 'Euler', 'semi-implicit', ' RK4 ', 'RK-4' all parse."""
+    """One name from a fixed list: 'Euler', 'semi-implicit', ' RK4 ', 'RK-4', 'backward Euler' all parse."""
 
     def __init__(self, names):
         self.names = list(names)
         spelling = "; '-' or a space may stand for '_'" if any("_" in name for name in self.names) else ""
         self.forms = f"one of {', '.join(self.names)} (any case{spelling})"
 
-    def parse(self, text: str) -> str:
+    def find(self, text: str) -> str | None:
+        """The name `text` means, or None."""
         key = _name_key(text)
         key = ALIASES.get(key, key)
-        for name in self.names:
-            if _name_key(name) == key:
-                return name
-        raise ValueError(f"{text.strip()!r} is not {self.forms}")
+        return next((name for name in self.names if _name_key(name) == key), None)
 
-
-# What people call the integrators and the answers, as the tables and the chapter write them.
-ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler", "symplecticeuler": "semiimplicit",
-           "semiimpliciteuler": "semiimplicit", "grow": "grows", "stay": "stays", "shrink": "shrinks"}
+    def parse(self, text: str) -> str:
+        name = self.find(text)
+        if name is None:
+            raise ValueError(f"{_shown(text)} is not {self.forms}")
+        return name
 
 
 class Number:
-    """One number from a fixed list of choices: 10000, 10,000, 10_000, 10 000 and 1e4 are the same."""
+    """One number from a fixed list of choices: 10000, 10,000, 10_000, 10 000, 1e4 and 10k are the same."""
 
     def __init__(self, choices, unit: str = ""):
         self.choices, self.unit = list(choices), unit
         with_unit = f", with or without '{unit}s'" if unit else ""
         self.forms = (f"one of {', '.join(f'{c:,}' for c in self.choices)}"
-                      f" (written 10000, 10,000, 10_000 or 1e4{with_unit})")
+                      f" (written 10000, 10,000, 10_000, 1e4 or 10k{with_unit})")
 
     def parse(self, text: str) -> int:
-        if self.unit:  # '1000 orbits' is 1000 orbits
-            text = re.sub(rf"\s*{re.escape(self.unit)}s?\s*$", "", text, flags=re.IGNORECASE) or text
+        words = text.split()
+        if self.unit and len(words) > 1 and words[-1].lower() in (self.unit, f"{self.unit}s"):
+            words = words[:-1]  # '1000 orbits' is 1000 orbits
         try:
-            value = _number(text)
+            value = _number(" ".join(words))
+        except TwoReadings:
+            raise  # it says why
         except ValueError:
             value = None
         if value not in self.choices:
-            raise ValueError(f"{text.strip()!r} is not {self.forms}")
+            raise ValueError(f"{_shown(text)} is not {self.forms}")
         return value
 
 
 class PerName:
-    """One value per name: 'euler=8, semi_implicit=4, rk4=1' (any spacing, any order, ':' for '=')."""
+    """One value per name: 'euler=8, semi_implicit=4, rk4=1' (any spacing, any order, ':' for '=', commas,
+    semicolons or just spaces between the items). `values` are numbers, or words such as grows/stays."""
 
     def __init__(self, names, values):
-        self.names, self.values = list(names), list(values)
-        self.forms = (f"name=value for each of {', '.join(self.names)}, separated by commas,"
-                      f" each value one of {', '.join(f'{v:g}' for v in self.values)}"
-                      f" ({template(self.names)})")
+        self.names, self.values = OneOf(names), list(values)
+        self.words = OneOf(self.values) if all(isinstance(v, str) for v in self.values) else None
+        what = "word" if self.words else "value"
+        self.choices = ", ".join(str(v) if self.words else f"{v:g}" for v in self.values)
+        self.forms = (f"name={what} for each of {', '.join(self.names.names)}, separated by commas,"
+                      f" each {what} one of {self.choices} ({template(self.names.names, what)})")
 
     def parse(self, text: str) -> dict:
-        names, prediction = OneOf(self.names), {}
-        # commas or semicolons between items; a space also does, where a value ends and a name begins
-        for item in filter(None, (part.strip() for part in re.split(r"[,;]|(?<=\d)\s+(?=[A-Za-z])", text))):
-            match = re.fullmatch(r"([^=:]*?)\s*[=:]\s*(.*)", item)
-            if not match:
-                raise ValueError(f"{item!r} has no '=': expected {self.forms}")
-            name_text, value_text = match.groups()
-            try:
-                name = names.parse(name_text)
-            except ValueError:
-                raise ValueError(f"in {item!r}, {name_text!r} is not one of {', '.join(self.names)}") from None
-            if value_text.strip() in ("?", "..."):
-                raise ValueError(f"in {item!r}, put your value where the {value_text.strip()} is:"
-                                 f" one of {', '.join(f'{v:g}' for v in self.values)}")
-            try:
-                value = _number(value_text)
-            except ValueError:
-                value = None
-            if value not in self.values:
-                raise ValueError(f"in {item!r}, {value_text.strip()} is not one of"
-                                 f" {', '.join(f'{v:g}' for v in self.values)}")
+        prediction = {}
+        for name_text, value_text in _pairs(text, self.forms):
+            item = _shown(f"{name_text}={value_text}")
+            name = self.names.find(name_text)
+            if name is None:
+                raise ValueError(f"in {item}, {_shown(name_text)} is not one of {', '.join(self.names.names)}")
+            value = self.value(item, value_text)
             if name in prediction:
                 raise ValueError(f"{name} is given twice")
             prediction[name] = value
-        missing = [name for name in self.names if name not in prediction]
+        missing = [name for name in self.names.names if name not in prediction]
         if missing:
             raise ValueError(f"no value for {', '.join(missing)}: expected {self.forms}")
-        return {name: prediction[name] for name in self.names}
+        return {name: prediction[name] for name in self.names.names}
+
+    def value(self, item: str, text: str):
+        text = text.strip()
+        if not text:
+            raise ValueError(f"in {item}, nothing after the '=': put one of {self.choices} there")
+        if text in ("?", "...") or (len(text) == 1 and text in "ABCDEFGH"):  # the template, typed as shown
+            raise ValueError(f"in {item}, put your value where the {text} is: one of {self.choices}")
+        if self.words:
+            value = self.words.find(text)
+        else:
+            try:
+                value = _number(text)
+            except ValueError as problem:
+                if isinstance(problem, TwoReadings):
+                    raise ValueError(f"in {item}, {problem}") from None
+                value = None
+        if value not in self.values:
+            raise ValueError(f"in {item}, {_shown(text, quoted=False)} is not one of {self.choices}")
+        return value
+
+
+class SomeOf:
+    """Any number of names from a list, or none, or all: 'rk4, implicit', 'RK4 and implicit Euler',
+    'semi-implicit Euler rk4', 'none', 'all of them'. `chosen` says which ones the answer lists."""
+
+    def __init__(self, names, chosen: str = "the ones you pick", kind: str = "one of the names"):
+        self.names, self.kind = OneOf(names), kind
+        self.forms = f"{chosen}, from {', '.join(self.names.names)}, separated by commas (or 'none', or 'all')"
+
+    def parse(self, text: str) -> frozenset:
+        words = [word.lower() for word in _words(text) if word.lower() != "and"]
+        if words in (["none"], ["none", "of", "them"]):
+            return frozenset()
+        count = len(self.names.names)
+        if words[:1] == ["all"] and words[1:] in ([], ["of", "them"], [str(count)], [_spelled(count)]):
+            return frozenset(self.names.names)
+        if not words:
+            raise ValueError(f"the answer is empty: answer with {self.forms}")
+        chosen, at = [], 0
+        while at < len(words):  # the longest run of words that is one name: "semi implicit euler" before "semi"
+            for length in range(min(LONGEST_NAME, len(words) - at), 0, -1):
+                name = self.names.find(" ".join(words[at:at + length]))
+                if name:
+                    chosen.append(name)
+                    at += length
+                    break
+            else:
+                word = words[at]
+                if word in ("none", "all"):
+                    raise ValueError(f"'{word}' goes alone: answer with {self.forms}")
+                raise ValueError(f"{_shown(word)} is not {self.kind} here: answer with {self.forms}")
+        return frozenset(chosen)
 
 
 def template(names, what: str = "value") -> str:
@@ -164,18 +227,79 @@ def explain(*lines: str, width: int = 100) -> None:
 
 def _name_key(text: str) -> str:
     """How a name is compared: any case, with spaces, '_' and '-' left out ('RK-4' is rk4)."""
-    return re.sub(r"[\s_-]+", "", text.lower())
+    return "".join(ch for ch in text.lower() if not (ch.isspace() or ch in "_-"))
+
+
+def _shown(text: str, limit: int = 40, quoted: bool = True) -> str:
+    """How a refusal quotes what was typed: spaces run together, and at most `limit` characters of it."""
+    text = " ".join(text.split())
+    text = text if len(text) <= limit else f"{text[:limit - 3]}..."
+    return repr(text) if quoted else text
+
+
+def _spelled(n: int) -> str:
+    return {2: "two", 3: "three", 4: "four", 5: "five"}.get(n, str(n))
+
+
+def _words(text: str) -> list:
+    """The words of an answer: split at spaces, commas, semicolons and '+'. One pass over the text."""
+    for separator in SEPARATORS + "+":
+        text = text.replace(separator, " ")
+    return text.split()
+
+
+def _pairs(text: str, forms: str):
+    """(name text, value text) for each item of 'euler=8, semi implicit: 4 rk4=1', one at a time (a refusal
+    comes at the first bad item, however long the rest). Split at every '=' or ':'; between two of them
+    sits one value, then (after a comma, a semicolon or a space) the next name."""
+    pieces = re.split(r"[=:]", text)  # a character class, no repetition: linear in the text
+    if len(pieces) == 1:
+        if not text.strip(" ,;\t\n"):
+            raise ValueError(f"the answer is empty: expected {forms}")
+        raise ValueError(f"{_shown(text)} has no '=': expected {forms}")
+    name = pieces[0]
+    for at in range(1, len(pieces)):
+        value, next_name = (pieces[at], "") if at == len(pieces) - 1 else _value_then_name(pieces[at])
+        name = name.strip(" ,;\t\n")
+        if not name:
+            raise ValueError(f"{_shown('=' + value)} has no name before its '=': expected {forms}")
+        if SEPARATORS[0] in name or SEPARATORS[1] in name:  # 'euler 8, rk4=1': an item with no '='
+            raise ValueError(f"{_shown(re.split(r'[,;]', name)[0])} has no '=': expected {forms}")
+        value = value.strip(" ,;\t\n")
+        if any(separator in value for separator in SEPARATORS):
+            raise ValueError(f"in {_shown(name + '=' + value)}, one value per name: expected {forms}")
+        yield name, value
+        name = next_name
+
+
+def _value_then_name(text: str) -> tuple[str, str]:
+    """'8, semi implicit ' -> ('8', 'semi implicit'): the value ends at the first comma or semicolon, or else
+    at the first space after it."""
+    stripped = text.strip()
+    for at, ch in enumerate(stripped):
+        if ch in SEPARATORS:
+            return stripped[:at], stripped[at + 1:]
+    value, _, name = stripped.partition(" ")
+    return value, name
 
 
 def _number(text: str) -> int:
-    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' -> 10000; ValueError if not a whole number."""
-    if re.fullmatch(r"\d{1,3}(\.\d{3})+", text.strip()):  # 10.000: ten thousand in much of Europe, ten here
-        raise ValueError(f"{text.strip()!r} could be read two ways: write it without the dot")
-    cleaned = re.sub(r"(?<=\d)[,_ ](?=\d{3}\b)", "", text.strip())
+    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' / '10k' -> 10000; ValueError if not a whole number.
+
+    TwoReadings for '1.000' and '10.000', which is ten thousand in much of Europe and ten here."""
+    shown = _shown(text)
+    text = " ".join(text.split()).lower()
+    if re.fullmatch(r"\d{1,3}(?:\.\d{3})+", text):  # fixed-width groups: linear
+        raise TwoReadings(f"{shown} could be read two ways: write it without the dot")
+    if re.fullmatch(r"\d{1,3}(?:[,_ ]\d{3})+", text):  # 10,000 / 10_000 / 10 000
+        text = text.replace(",", "").replace("_", "").replace(" ", "")
+    scale = 1
+    if text.endswith("k") and len(text) > 1:  # 10k: ten thousand
+        text, scale = text[:-1].strip(), 1000
     try:
-        value = float(cleaned)
+        value = float(text) * scale
     except ValueError:
-        raise ValueError(f"{text.strip()!r} is not a number") from None
+        raise ValueError(f"{shown} is not a number") from None
     if not math.isfinite(value) or value != int(value):
-        raise ValueError(f"{text.strip()!r} is not a whole number")
+        raise ValueError(f"{shown} is not a whole number")
     return int(value)

@@ -24,12 +24,14 @@ A recording in a few lines (a time series per name; exercise 7's shape):
 - `from_above(origin, name, paths)`: a flat plot drawn in a 3D view seen from straight above (Rerun's 2D
   views point y down), its camera framing every drawable point of `paths`. `log_axes` draws its axes,
   named past their tips; `log_key` a key of coloured dots and labels beside the paths (frame it too).
-- `opening(story, last_step)`: the Blueprint to send: `story` (a view, or rrb.Horizontal/Vertical of
-  views) with the panels closed and the cursor on the last step; play replays the run in about 20 s.
+- `opening(story, last_step)`: the Blueprint to send: `story` (a view, a list of views to stack, or an
+  rrb.Horizontal/Vertical/Grid of views) with the panels closed and the cursor on the last step; play
+  replays the run in about 20 s.
 - `recorded(application_id, fill, recording_id=None)`: builds the recording in memory, sends the
-  blueprint `fill(stream)` returns, and gives back the bytes (also after a Ctrl-C inside `fill`).
+  blueprint `fill(stream)` returns, and gives back the bytes; if `fill` is interrupted (Ctrl-C) the
+  stream is still drained, so Rerun has nothing left to flush while the process exits.
 
-The palette is Okabe and Ito's (Color Universal Design, 2008). The four integrators' colours stay more
+The palette is Okabe and Ito's colour-universal set (Color Universal Design). The four integrators' colours stay more
 than 20 apart in CAM02-UCS from one another and from the viewer's background, for normal vision and for
 simulated deuteranopia, protanopia and tritanopia at full severity (tests/test_palette.py measures it).
 The chapter's key pair, explicit and semi-implicit Euler, is vermillion against sky blue: never red
@@ -73,12 +75,14 @@ def looks(names) -> dict:
 
 
 def opening(story, last_step: int, timeline: str = "step"):
-    """The Blueprint every course recording opens with: `story` (a view or a container of views) fills the
-    window, the side panels are closed, and the time cursor sits on the last step (play state
-    "following"): every body where its run ended, every plot whole. Pause, then play, and the viewer
-    starts again from step 0 and takes about PLAYBACK_SECONDS to the end."""
+    """The Blueprint every course recording opens with: `story` (a view, a list of views to stack, or an
+    rrb.Horizontal/Vertical/Grid of them) fills the window, the side panels are closed, and the time
+    cursor sits on the last step (play state "following"): every body where its run ended, every plot
+    whole. Pause, then play, and the viewer starts again from step 0 and takes about PLAYBACK_SECONDS."""
     import rerun.blueprint as rrb
 
+    if isinstance(story, list | tuple):  # several views: one under the other
+        story = rrb.Vertical(*story)
     return rrb.Blueprint(
         story,
         rrb.BlueprintPanel(state="hidden"),
@@ -208,7 +212,7 @@ def log_key(stream, entity: str, looks: dict, paths):
 
     low, high = extent(paths)
     span = float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
-    gap = min(0.15 * span, float(high[1] - low[1] or span) / max(len(looks), 1))
+    gap = min(0.2 * span, float(high[1] - low[1] or span) / max(len(looks), 1))
     names = list(looks)
     positions = np.array([[float(high[0]) + 0.15 * span, float(high[1]) - i * gap, 0.0] for i in range(len(names))])
     key = rr.Points3D(positions, colors=[looks[n].colour for n in names], labels=[looks[n].label for n in names],
