@@ -33,14 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from curriculum.common.cli import (
-    OneLineParser,
-    int_in,
-    name_arg,
-    positive_finite,
-    progress_printer,
-    recording_wanted,
-)
+from curriculum.common.cli import OneLineParser, int_in, name_arg, positive_finite, progress_printer, recording_wanted
 from curriculum.common.device import banner, wall_clock
 from curriculum.common.outputs import content_id, folder_arg, folder_problem, one_line_failures, write_run
 from curriculum.common.report import cell, metrics_text, rounded, sim_time
@@ -51,10 +44,8 @@ from curriculum.common.viewer import rerun_problem
 DEFAULT_STEPS = 2000  # the chapter's run: 20 s of sim time at dt 0.01
 SMOKE_STEPS = 600  # fixed, so two smoke runs can be diffed byte for byte
 MAX_STEPS = 10_000_000  # energies of every step stay in memory: 80 MB per integrator at the cap
+PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
 DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (300 is the stiff case)
-MAX_SEED = 2**64 - 1  # any seed numpy takes would do; past 4,300 digits Python cannot even print one
-MAX_DAMPING = 1e6  # N s/m: dt b/m = 10,000 at the chapter's dt, far past docs/damping.md's map (100); much
-# further and the exact motion overflows: e^(b/2m t) at the recording's t = -1 us past 1.4e9, (b/2m)^2 past 2.7e154
 METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 
 
@@ -195,12 +186,9 @@ def damped_spring(rng, damping=DAMPING):
 
 
 def build_system(name: str, rng: np.random.Generator, damping: float | None = None) -> dict:
-    """The system `name` as a dict {name, returns, q0, v0, m, force, energy, exact, ...}.
-
-    The seed jitters one initial condition per system (orbit speed, spring stretch, launch
-    speed), so --seed matters while the ordering of the drifts does not change. `damping`,
-    if given, is the damped spring's b.
-    """
+    """The system `name` as a dict {name, returns, q0, v0, m, force, energy, exact, ...}; `damping`, if given,
+    is the damped spring's b. The seed jitters one number of the start (orbit speed, spring stretch, launch
+    speed), so --seed matters while the ordering of the drifts does not change."""
     build = SYSTEMS.get(name) or DAMPED_SYSTEMS.get(name)
     if build is None:
         raise ValueError(f"unknown system {name!r}; choose one of {', '.join([*SYSTEMS, *DAMPED_SYSTEMS])}")
@@ -563,6 +551,9 @@ def verdict_line(drifts: dict) -> str:
 
 # --- the run: flags and main ---
 
+MAX_SEED = 2**64 - 1  # any seed numpy takes would do; past 4,300 digits Python cannot even print one
+MAX_DAMPING = 1e6  # N s/m: dt b/m = 10,000, far past docs/damping.md's map; near 1.4e9 the exact motion overflows
+
 
 def parse_args(argv=None) -> argparse.Namespace:
     parser = OneLineParser(prog="engine.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -602,12 +593,9 @@ def parse_args(argv=None) -> argparse.Namespace:
         parser.error("argument --ensemble: ensembles compare energy drift on the conservative systems"
                      f" ({', '.join(SYSTEMS)})")
     needs = getattr(INTEGRATORS.get(args.integrator), "needs", None)  # implicit needs the force's dforce_dv
-    if needs:
-        every_system = [build_system(name, np.random.default_rng(0)) for name in [*SYSTEMS, *DAMPED_SYSTEMS]]
-        offered = [system["name"] for system in every_system if needs in system]
-        if args.system not in offered:
-            parser.error(f"argument --integrator: {args.integrator} needs a velocity-dependent force ({needs}),"
-                         f" so --system {' or '.join(offered)}")
+    if needs and needs not in build_system(args.system, np.random.default_rng(0)):
+        parser.error(f"argument --integrator: {args.integrator} needs a velocity-dependent force ({needs}), which"
+                     f" --system {args.system} does not have: try --system {' or '.join(DAMPED_SYSTEMS)}")
     if args.smoke and args.steps is not None:
         parser.error(f"argument --steps: --smoke always runs {SMOKE_STEPS} steps (so two smoke runs can be diffed);"
                      " drop one of the two")
@@ -672,9 +660,6 @@ def main(argv=None) -> int:
         print_report(args.system, args.dt, steps, drifts)
     finish(args, runs, steps, started)
     return 0
-
-
-PROGRESS_FROM = 300_000  # integrator-steps in a run before progress goes to stderr
 
 
 def drift_with_final_position(run: tuple) -> dict:
