@@ -68,15 +68,30 @@ def _exit_now() -> None:
     silently with -2 although the run had finished. Nothing is left to do by then: the run's files
     were written with os.write and synced, and the streams are flushed here.
     """
-    if _state["code"] is None:
+    code = _state["code"]
+    if code is None:
         return
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            if stream is not None:
-                stream.flush()
-        except (OSError, ValueError):
-            pass
-    os._exit(_state["code"])
+    try:
+        if sys.stdout is not None:
+            sys.stdout.flush()  # what is still buffered (--help's text, say) goes out now, or we say it could not
+    except (OSError, ValueError) as error:
+        if code == 0:
+            why = getattr(error, "strerror", None) or str(error)
+            _say(f"{_state['prog']}: error: could not print the report ({why}: stdout closed or full?)")
+            code = 1
+    try:
+        if sys.stderr is not None:
+            sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+    os._exit(code)
+
+
+def _say(line: str) -> None:
+    try:
+        os.write(2, f"{line}\n".encode(errors="backslashreplace"))
+    except OSError:
+        pass
 
 
 def _stop(number, frame):
