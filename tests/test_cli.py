@@ -221,3 +221,13 @@ def test_rerun_switched_off_makes_exercise_5_skip_its_recording_in_one_line(tmp_
     assert result.returncode == 0 and list(tmp_path.iterdir()) == []
     assert result.stderr == ("exercises.ex5_phase_blob: note: RERUN=OFF is set, so no recording is made"
                              " (as with --no-rerun)\n")
+
+
+def test_help_into_a_full_stdout_is_exit_1_not_a_silent_0():
+    """argparse drops a failed write of --help and exits 0: a script would think the help was shown."""
+    with open("/dev/full", "w") as full:
+        result = subprocess.run([sys.executable, "engine.py", "--help"], cwd=REPO, stdout=full,
+                                stderr=subprocess.PIPE, text=True, timeout=60)
+    assert result.returncode == 1
+    assert result.stderr == ("engine.py: error: could not print the report (No space left on device: stdout closed"
+                             " or full?); no file was written\n")

@@ -108,3 +108,26 @@ def test_write_atomic_replaces_the_file_whole_and_leaves_no_temporary(tmp_path):
     write_atomic(tmp_path / "engine.rrd", b"\x00bytes")
     assert target.read_text() == "new\n" and (tmp_path / "engine.rrd").read_bytes() == b"\x00bytes"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["engine.rrd", "metrics.json"]
+
+
+@pytest.mark.parametrize("typed", ["-inf", "-1e3", "-.5", "-NaN"])
+def test_a_value_that_starts_with_a_minus_reaches_the_flags_type(typed, capsys):
+    """argparse takes '-inf' and '-1e3' for flags ("expected one argument"); the type says what is wrong."""
+    parser = OneLineParser(prog="chapter.py")
+    parser.add_argument("--dt", type=positive_finite("--dt"))
+    with pytest.raises(SystemExit):
+        parser.parse_args(["--dt", typed])
+    assert capsys.readouterr().err == (f"chapter.py: error: argument --dt: --dt must be a positive, finite number,"
+                                       f" got {typed} (see --help)\n")
+
+
+def test_importing_a_script_installs_no_guard():
+    """guard() acts only in the program being run: an exercise importing engine.py, or a test, keeps its handlers."""
+    import signal
+
+    from curriculum.common import interrupts
+
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    interrupts.guard("imported.py")  # called from this module, which is not __main__
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+    assert not interrupts.active()

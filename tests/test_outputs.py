@@ -946,7 +946,7 @@ def test_a_memory_limit_is_not_enough_memory_never_reinstall(megabytes, flags, t
     if result.returncode == 0:
         pytest.skip(f"{megabytes} MB is enough on this machine")
     assert "Traceback" not in result.stderr and "reinstall" not in result.stderr, result.stderr
-    if result.returncode == -signal.SIGABRT:  # a known limit, in Rerun's Rust code: see docs/DEVELOPING.md
+    if result.returncode == -signal.SIGABRT:  # Rerun's Rust code aborts: a known limit (docs/DEVELOPING.md)
         assert re.match(r"memory allocation of \d+ bytes failed\n", result.stderr), result.stderr
     else:
         assert len(result.stderr.splitlines()) == 1 and "not enough memory" in result.stderr, result.stderr

@@ -26,6 +26,19 @@ class OneLineParser(argparse.ArgumentParser):
         # argparse takes '-1' and '-.5' for numbers and everything else with a '-' for a flag
         self._negative_number_matcher = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
 
+    def _print_message(self, message, file=None):
+        """argparse drops a failed write silently: --help into a full or closed stdout then exits 0 having said
+        nothing. Here that write fails aloud (one_line_failures says it in one line); an error line that
+        cannot reach stderr is still dropped, since its exit code 2 says it anyway."""
+        file = file or sys.stderr
+        if message and file is sys.stdout:
+            file.write(message)
+        elif message:
+            try:
+                file.write(message)
+            except (AttributeError, OSError):
+                pass
+
     def error(self, message):
         hint = ""
         if message.startswith("unrecognized arguments: "):

@@ -9,15 +9,17 @@
 From that line to the process's last instant, SIGINT and SIGTERM end the program with one line and exit
 130 or 143. Until main() takes over nothing has been written, so the line says that. While main() runs,
 @one_line_failures (outputs.py) installs its own handlers, which clean up the run's files; when main()
-returns it hands the signals back here with what was written (`finished()`), so a Ctrl-C in the moment
-Rerun keeps the process alive at exit says the truth: "interrupted after the run had finished: ...".
+returns it hands the signals back here with what was written (`finished()`), so a Ctrl-C while the exit
+handlers run says the truth: "interrupted after the run had finished: ...". The guard's own exit handler
+runs last and ends the process with main()'s code: Python's shutdown after it (~0.3 s once Rerun is
+loaded) would run with the signal handlers reset, where a Ctrl-C ends the process without a word.
 
 The guard also answers what can go wrong before main(): an import that runs out of memory under a
 memory limit (ulimit -v) gets "not enough memory", never a library's advice to reinstall. Any other
 error keeps its traceback: that is a bug to report.
 
 It acts only in the program being run (the module calling it is __main__): importing engine.py from an
-exercise or a test installs nothing. Loads nothing heavy: os, signal and sys are loaded already.
+exercise or a test installs nothing. Loads nothing heavy: atexit, os, signal and sys are built in.
 """
 
 import atexit
@@ -70,15 +72,30 @@ def _exit_now() -> None:
     silently with -2 although the run had finished. Nothing is left to do by then: the run's files
     were written with os.write and synced, and the streams are flushed here.
     """
-    if _state["code"] is None:
+    code = _state["code"]
+    if code is None:
         return
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            if stream is not None:
-                stream.flush()
-        except (OSError, ValueError):
-            pass
-    os._exit(_state["code"])
+    try:
+        if sys.stdout is not None:
+            sys.stdout.flush()  # what is still buffered (--help's text, say) goes out now, or we say it could not
+    except (OSError, ValueError) as error:
+        if code == 0:
+            why = getattr(error, "strerror", None) or str(error)
+            _say(f"{_state['prog']}: error: could not print the report ({why}: stdout closed or full?)")
+            code = 1
+    try:
+        if sys.stderr is not None:
+            sys.stderr.flush()
+    except (OSError, ValueError):
+        pass
+    os._exit(code)
+
+
+def _say(line: str) -> None:
+    try:
+        os.write(2, f"{line}\n".encode(errors="backslashreplace"))
+    except OSError:
+        pass
 
 
 def _stop(number, frame):

@@ -3,8 +3,9 @@
     from curriculum.common.outputs import folder_problem, write_run, one_line_failures, content_id
 
 - `folder_problem(out, names)` says, before any simulation, why `out` cannot take a run's files: it tries
-  (creates the missing folders and one unique empty file, then removes them) instead of trusting
-  os.access, which says yes to root for /sys and read-only folders.
+  (creates a file with no name where `out`, or its deepest existing folder, is) instead of trusting
+  os.access, which says yes to root for /sys and read-only folders. It creates no folder: runs started
+  together into a missing folder must not see it appear and vanish; write_run() makes it and keeps it.
 - `write_run(out, {"engine.rrd": data, "metrics.json": text})` replaces a run's files together: each goes
   to a new file with an unguessable name in `out` (created exclusively, never through a symlink),
   flushed to disk; only when all are complete are they renamed into place, and the folder is synced.
