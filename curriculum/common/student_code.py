@@ -15,6 +15,7 @@ is killed and the folder removed. A task that never ends costs its group: the ot
 again in a fresh child, so one endless loop does not hide the verdict on another function.
 """
 
+import argparse
 import ast
 import importlib
 import importlib.util
@@ -26,6 +27,7 @@ import stat
 import subprocess
 import sys
 import tempfile
+import textwrap
 import threading
 import time
 import tokenize
@@ -98,14 +100,50 @@ def source_problem(path: Path) -> tuple[int, str] | None:
     return None
 
 
-def definitions(path: Path) -> dict:
-    """{function name: [(line, parameter names), ...]} of the file's top-level defs, in order."""
-    found = {}
-    for node in ast.parse(path.read_bytes()).body:
-        if isinstance(node, ast.FunctionDef):
-            names = [a.arg for a in node.args.posonlyargs + node.args.args]
-            found.setdefault(node.name, []).append((node.lineno, names))
-    return found
+def source_notes(path: Path, name: str, parameters: list) -> tuple[str | None, str]:
+    """(sentence if the last `def name` changed the given parameters, else None; a note if `name` is defined
+    more than once). Read from the source, so nothing runs."""
+    defined = [node for node in ast.parse(path.read_bytes()).body
+               if isinstance(node, ast.FunctionDef) and node.name == name]
+    note = ""
+    if len(defined) > 1:
+        lines = ", ".join(str(node.lineno) for node in defined)
+        note = (f" It is defined {len(defined)} times in your file (lines {lines}): Python keeps the last one, line"
+                f" {defined[-1].lineno}, and that is the one checked.")
+    given = [a.arg for a in defined[-1].args.posonlyargs + defined[-1].args.args] if defined else parameters
+    if given[: len(parameters)] != parameters and (sorted(given) == sorted(parameters) or len(given) < len(parameters)):
+        return (f"you changed its signature to {name}({', '.join(given)}). It is called as {name}"
+                f"({', '.join(parameters)}), in that order; keep the first line as it was given."), note
+    return None, note
+
+
+class NotOutputs(Exception):
+    """What a student's function returned is not what was asked for; the message says what."""
+
+
+def as_arrays(result, names: tuple, shape: tuple, np) -> tuple:
+    """The function's outputs as float arrays of `shape`, one per name, not copied (a reused input shows).
+    numpy is passed in: this module imports nothing heavy."""
+    wanted = f"({', '.join(names)})"
+    if result is None:
+        raise NotOutputs(f"returns None: the function ends without returning {wanted}")
+    if isinstance(result, np.ndarray) and result.ndim == 1:
+        raise NotOutputs(f"returns one array of shape {result.shape}; it must return {len(names)}, {wanted}")
+    try:
+        values = list(result)
+    except TypeError:
+        raise NotOutputs(f"returns one {type(result).__name__}, not {wanted}") from None
+    if len(values) != len(names):
+        raise NotOutputs(f"returns {len(values)} values; it must return {len(names)}, {wanted}")
+    arrays = []
+    for what, value in zip(names, values, strict=True):
+        try:
+            arrays.append(np.asarray(value, dtype=float))
+        except (TypeError, ValueError):
+            raise NotOutputs(f"returns a {what} that is not numbers: {type(value).__name__}") from None
+        if arrays[-1].shape != shape:
+            raise NotOutputs(f"returns a {what} of shape {arrays[-1].shape}; it must have shape {shape}")
+    return tuple(arrays)
 
 
 # --- the parent: start the child, keep what it says, stop it on every path ---
@@ -270,7 +308,75 @@ def handle_signals(prog: str) -> None:
             signal.signal(number, stop)
 
 
+# --- comparing outputs with the reference's (numpy arrays, passed in) ---
+
+
+def agrees(mine, theirs):
+    """Per row: equal up to round-off (1e-9 of the size), so any order of the same arithmetic agrees."""
+    import numpy as np  # here, so that importing this module stays light
+
+    with np.errstate(all="ignore"):
+        return (np.abs(mine - theirs) <= 1e-9 * np.maximum(1.0, np.abs(theirs))).reshape(len(mine), -1).all(axis=1)
+
+
+def gaps(mine, theirs):
+    """Per row of a run: the largest difference from the reference's, relative to the run's largest value."""
+    import numpy as np
+
+    with np.errstate(all="ignore"):
+        gap = np.max(np.abs(mine - theirs), axis=1) / max(1.0, float(np.max(np.abs(theirs))))
+    return np.where(np.isfinite(gap), gap, np.inf)
+
+
 # --- sentences ---
+
+
+def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str | None:
+    """The sentence for tasks `indices` of one function if they ended without an answer, else None.
+    where(i) says what task i is doing ("during a whole run on ..."), long(i) if it takes many calls."""
+    if run.malformed:
+        return f"your file's run did not finish: {run.malformed}."
+    if run.imported and "error" in run.imported:
+        return f"your file stopped while Python was importing it: it {error_sentence(run.imported['error'])}."
+    if run.imported:
+        flood = f" It printed {run.printed_bytes:,} bytes meanwhile." if run.printed_bytes > 1_000_000 else ""
+        if run.imported["stopped"].startswith("exit"):
+            return (f"your file ended Python while it was being imported ({run.imported['stopped']}): does it call"
+                    f" os._exit() at the top level? Only definitions need to be there.{flood}")
+        return (f"importing your file did not finish within {time_limit:.0f} s. Code at the top level runs when a"
+                " file is imported: put trial runs under `if __name__ == \"__main__\":`, and look for a loop that"
+                f" never ends.{flood}")
+    for i in indices:
+        stopped, result = run.stopped.get(i), run.results.get(i, {})
+        if stopped == "time limit":
+            return (f"stopped after {time_limit:.0f} s {where(i)}, without returning. Is there a loop that never ends,"
+                    " a sleep, or a print in every call? One call should take well under a millisecond.")
+        if stopped:
+            return (f"the checker's run of your file ended by itself ({stopped}) {where(i)}. Does your code call"
+                    " os._exit(), or crash Python? A function should only return its result.")
+        error = result.get("error", {})
+        if error.get("type") == "NotImplementedError":
+            return "not solved yet. It still raises NotImplementedError: fill in its TODO."
+        if error.get("type") == "SystemExit":
+            return (f"your code ends Python with sys.exit() or exit() ({error['message']}) {where(i)}: a function"
+                    " should only return its result.")
+        if error:
+            return f"it {error_sentence(error)}."
+        if result.get("problem") == "missing":
+            return "not found in your file. Keep the function names as they are."
+        if "problem" in result:
+            return f"your function {result['problem']}."
+    return None
+
+
+def print_notes(run: Run) -> None:
+    """What the student's code printed (the start of it) and any module clash, before the verdicts."""
+    if run.printed_bytes:
+        lines = run.printed.decode("utf-8", "replace").splitlines()[:8]
+        print(f"Your code printed {run.printed_bytes:,} bytes while it was checked; the start:")
+        print("\n".join(f"  | {line[:200]}" for line in lines) + "\n")
+    if run.clashes:
+        print(textwrap.fill(clash_sentence(run.clashes), width=100) + "\n")
 
 
 def error_sentence(error: dict) -> str:
@@ -284,6 +390,40 @@ def error_sentence(error: dict) -> str:
 def clash_sentence(clashes: list) -> str:
     return " ".join(f"{file} beside your file has the name of {module}, which Python imports first; `import"
                     f" {Path(file).stem}` gets that one, never yours. Rename yours." for file, module in clashes)
+
+
+# --- the command of a chapter's checker ---
+
+
+def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int:
+    """`prog [FILE]`: check(path) -> (solved, messages, run) for a file that compiles; 0 solved, 1 not, 2 unusable."""
+    from curriculum.common.cli import OneLineParser
+    from curriculum.common.predict import explain
+
+    parser = OneLineParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("file", nargs="?", type=Path, default=default, help=f"{what} (default: {default.name})")
+    args = parser.parse_args(argv)
+    handle_signals(prog)
+    problem = source_problem(args.file)
+    if problem and problem[0] == 2:
+        parser.exit(2, f"{prog}: error: {problem[1]}\n")
+    try:
+        if problem:  # does not compile: the sentence, then the line as it is in the file
+            sentence, _, code = problem[1].partition("\n")
+            explain(sentence)
+            print(code + "\n\nNot solved yet: fix that line, and run the checker again.")
+            return 1
+        try:
+            solved, messages, run = check(args.file)
+        except ScratchProblem as error:
+            parser.exit(2, f"{prog}: error: {error}\n")
+        print_notes(run)
+        explain(*messages)
+        print("\nAll solved." if solved else "\nNot solved yet: read the messages above, edit, and run it again.")
+        return 0 if solved else 1
+    except BrokenPipeError:  # piped into `head`, which stopped reading: not an error worth a traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
 
 
 # --- the child: runs as `python -I -B student_code.py FD`, the job on stdin ---

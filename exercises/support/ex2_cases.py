@@ -1,9 +1,7 @@
-"""The systems check_ex2 runs your steps on, and collect(), which runs them.
-
-collect() runs in the checker's child process on your steps, and in the checker itself on the engine's,
-so both go through the same code. The chapter's three systems (engine.build_system, seed 0) all have mass
-1 and forces that ignore velocity: a step that forgets `/ m`, or hands a stage the wrong velocity, looks
-right on them. The checker's own systems add masses other than 1 and forces that depend on velocity.
+"""The systems check_ex2 runs your steps on, and collect(), which runs them: in the checker's child on
+your steps, in the checker on the engine's, so both go through the same code. The chapter's three systems
+have mass 1 and forces that ignore velocity: a step that forgets `/ m`, or hands a stage the wrong
+velocity, looks right on them. The checker's own add masses other than 1 and forces that depend on v.
 """
 
 import math
@@ -11,6 +9,7 @@ import math
 import numpy as np
 
 import engine
+from curriculum.common.student_code import NotOutputs, as_arrays
 
 CHAPTER = ("orbit", "spring", "freefall")  # built by the engine, with the chapter's constants
 # name: (what it is, m, spring constant k, damping c, inverse-square pull mu, quadratic drag)
@@ -20,6 +19,7 @@ OWN = {
     "heavy_damped_spring": ("a damped spring with m = 2.5", 2.5, 3.0, 0.8, 0.0, 0.0),
     "dragged_orbit": ("an orbit with drag, m = 0.7", 0.7, 0.0, 0.0, 1.0, 0.3),
 }
+STATE = ("q_next", "v_next")  # what a step returns
 BUILT = {name: engine.build_system(name, np.random.default_rng(0)) for name in CHAPTER}
 
 
@@ -31,7 +31,7 @@ def mass(name: str) -> float:
     return BUILT[name]["m"] if name in CHAPTER else OWN[name][1]
 
 
-def velocity_free(name: str) -> bool:
+def velocity_free(name: str) -> bool:  # the chapter's forces all ignore velocity
     return name in CHAPTER or not (OWN[name][3] or OWN[name][5])
 
 
@@ -60,35 +60,6 @@ def exact_position(name: str, q0, v0, t: float) -> np.ndarray:
     return engine.damped_oscillator(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), k, m, c, [t])[0]
 
 
-class NotAState(Exception):
-    """The step returned something that is not (q_next, v_next); the message says what."""
-
-
-def as_state(result) -> tuple:
-    """The step's two arrays of shape (3,), not copied (so that a step's reuse of its inputs shows)."""
-    if result is None:
-        raise NotAState("returns None: the function ends without returning (q_next, v_next)")
-    if isinstance(result, np.ndarray) and result.ndim == 1:
-        hint = " (for a stacked state y, return y[:3], y[3:])" if result.shape == (6,) else ""
-        raise NotAState(f"returns one array of shape {result.shape}; it must return two, (q_next, v_next){hint}")
-    try:
-        pair = list(result)
-    except TypeError:
-        raise NotAState(f"returns one {type(result).__name__}, not a pair (q_next, v_next)") from None
-    if len(pair) != 2:
-        raise NotAState(f"returns {len(pair)} values; it must return two, (q_next, v_next)")
-    state = []
-    for what, value in zip(("q_next", "v_next"), pair, strict=True):
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise NotAState(f"returns a {what} that is not numbers: {type(value).__name__}") from None
-        if array.shape != (3,):
-            raise NotAState(f"returns a {what} of shape {array.shape}; a state here has shape (3,)")
-        state.append(array)
-    return tuple(state)
-
-
 def collect(steps, task: dict) -> dict:
     """Run one task with steps.<task["function"]>: single steps from fresh states ("probes"), or one whole
     run, each step fed its own output. Returns plain lists, which travel as JSON."""
@@ -114,7 +85,8 @@ def collect(steps, task: dict) -> dict:
             for probe in task["probes"]:
                 q, v = np.array(probe["q"]), np.array(probe["v"])
                 calls[0] = 0
-                q_next, v_next = as_state(step(q, v, mass(probe["system"]), force_of(probe["system"]), probe["dt"]))
+                step_taken = step(q, v, mass(probe["system"]), force_of(probe["system"]), probe["dt"])
+                q_next, v_next = as_arrays(step_taken, STATE, (3,), np)
                 outputs.append([q_next.tolist(), v_next.tolist()])
                 counts.append(calls[0])
                 changed |= {name for name, given in (("q", q), ("v", v)) if given.tolist() != probe[name]}
@@ -122,11 +94,11 @@ def collect(steps, task: dict) -> dict:
         q, v = np.array(task["q0"]), np.array(task["v0"])
         m, force, rows, reused = mass(task["system"]), force_of(task["system"]), [q.tolist() + v.tolist()], None
         for k in range(1, task["steps"] + 1):
-            q_next, v_next = as_state(step(q, v, m, force, task["dt"]))
+            q_next, v_next = as_arrays(step(q, v, m, force, task["dt"]), STATE, (3,), np)
             if reused is None and any(np.shares_memory(a, b) for a in (q_next, v_next) for b in (q, v)):
                 reused = k
             rows.append(q_next.tolist() + v_next.tolist())
             q, v = q_next, v_next
         return {"rows": rows, "reused": reused}
-    except NotAState as problem:
+    except NotOutputs as problem:
         return {"problem": str(problem)}

@@ -1,28 +1,9 @@
-"""The catalogue: exercise 2's known mistakes and methods, each written as a step, with what the checker says.
+"""Exercise 2's known mistakes and methods, as steps, with what the checker says (adding one: docs/DEVELOPING.md).
 
-One entry is (function, step, message, where): when the student's single steps equal `step`'s on the
-checker's systems (`where` = "all"), or on those whose force ignores velocity ("velocity-free", for methods
-that only differ in which velocity a second force call gets), `message` is the verdict. {orbit} is the
-student's worst energy error on the chapter's orbit, {halving} by how much halving dt divides its error on
-a spring with m = 2.5, both measured in that check. Messages say what the code does and ask the question
-that leads back to the chapter; they never show the answer's code. Adding a mistake: docs/DEVELOPING.md.
-"""
-
-
-def _acceleration(mass_rule):
-    """force -> acceleration the right way (/ m) or one of the wrong ways."""
-    return {"right": lambda f, m: f / m, "forgot": lambda f, m: f, "twice": lambda f, m: f / m / m,
-            "times": lambda f, m: f * m}[mass_rule]
-
-
-def semi(mass_rule="right"):
-    accel = _acceleration(mass_rule)
-
-    def step(q, v, m, force, dt):
-        v_next = v + dt * accel(force(q, v), m)
-        return q + dt * v_next, v_next
-
-    return step
+An entry (function, step, message, where) is the verdict when the student's single steps equal `step`'s on
+all the checker's systems ("all"), or on those whose force ignores velocity ("velocity-free"). {orbit} and
+{halving} are measured on the student's runs. Messages never show the answer's code; a mass mistake needs
+no entry (the checker sees "right whenever m = 1" by itself)."""
 
 
 def explicit_euler(q, v, m, force, dt):
@@ -56,12 +37,10 @@ def drift_kick_drift(q, v, m, force, dt):
     return q_half + 0.5 * dt * v_next, v_next
 
 
-def runge_kutta(stages, weights, mass_rule="right", stage_velocity=True, position_slope="stage", scale=None):
+def runge_kutta(stages, weights, stage_velocity=True, position_slope="stage", scale=None):
     """An explicit Runge-Kutta step on (q, v)' = (v, a) from a Butcher tableau: rows of a, weights b.
-
-    stage_velocity=False hands every stage the starting v; position_slope="start" uses the starting v as
-    every stage's slope of q; scale replaces dt in the final blend (lambda dt: 1.0 forgets it)."""
-    accel = _acceleration(mass_rule)
+    stage_velocity=False hands every stage the starting v; position_slope="start" makes the starting v every
+    stage's slope of q; scale replaces dt in the final blend (lambda dt: 1.0 forgets it)."""
 
     def step(q, v, m, force, dt):
         kq, kv = [], []
@@ -71,7 +50,7 @@ def runge_kutta(stages, weights, mass_rule="right", stage_velocity=True, positio
                 if a_ij:
                     qs, vs = qs + (a_ij * dt) * kqj, vs + (a_ij * dt) * kvj
             kq.append(vs if position_slope == "stage" else v)
-            kv.append(accel(force(qs, vs if stage_velocity else v), m))
+            kv.append(force(qs, vs if stage_velocity else v) / m)
         h = dt if scale is None else scale(dt)
         q_next, v_next = q, v
         for b, kqj, kvj in zip(weights, kq, kv, strict=True):
@@ -82,64 +61,61 @@ def runge_kutta(stages, weights, mass_rule="right", stage_velocity=True, positio
 
 
 CLASSICAL, RK4_WEIGHTS = [[], [0.5], [0, 0.5], [0, 0, 1]], [1 / 6, 1 / 3, 1 / 3, 1 / 6]
-MASS = (" With the chapter's mass of 1 no run can tell; on the checker's m = 2.5 spring it can. Where does a"
-        " force become an acceleration, and how many times does m take part in that?")
-STAGE = " Which position and which velocity does each stage hand to force(q, v)?"
 SEMI, RK4 = "semi_implicit_step", "rk4_step"
+SECOND = "halving dt divides its error by {halving} on a spring with m = 2.5. A fine second-order method, but not"\
+         " MuJoCo's Euler."
 
 MISTAKES = [
     (SEMI, explicit_euler, "your step still moves the position with the old velocity: that is explicit Euler. On the"
      " chapter's orbit its energy error reaches {orbit} in 2,000 steps. Which velocity should move the position?",
      "all"),
-    (SEMI, position_first, "you move the position first, then take the velocity from the force at the new position:"
-     " the other symplectic Euler, valid and bounded (on the chapter's orbit its energy error stays within {orbit}"
-     " over 2,000 steps), but not MuJoCo's. Which of the two does mjINT_EULER update first?", "all"),
-    (SEMI, semi("forgot"), "you use the force itself as the acceleration." + MASS, "all"),
-    (SEMI, semi("twice"), "you divide the force by m twice." + MASS, "all"),
-    (SEMI, semi("times"), "you multiply the force by m where an acceleration is wanted." + MASS, "all"),
-    (SEMI, taylor_position, "you move the position by v dt + a dt^2 / 2, the Taylor step of velocity Verlet, with a"
-     " first-order velocity update. Which velocity moves the position in semi-implicit Euler?", "all"),
-    (SEMI, new_velocity_without_dt, "your position update adds a velocity without multiplying it by dt: a velocity"
-     " is metres per second; what turns it into a change of position?", "all"),
+    (SEMI, position_first, "you move the position first, then take the velocity from the force there: the other"
+     " symplectic Euler, bounded too (on the chapter's orbit its energy error stays within {orbit} over 2,000"
+     " steps), but not MuJoCo's. Which of the two does mjINT_EULER update first?", "all"),
+    (SEMI, taylor_position, "you move the position by v dt + a dt^2 / 2, velocity Verlet's Taylor step. Which"
+     " velocity moves the position in semi-implicit Euler?", "all"),
+    (SEMI, new_velocity_without_dt, "your position update adds a velocity without multiplying it by dt. What"
+     " turns a velocity into a change of position?", "all"),
     (SEMI, velocity_verlet, "on the systems whose force ignores velocity this is velocity Verlet (leapfrog's twin: a"
-     " half kick, a drift, a half kick): halving dt divides its error by {halving} on a spring with m = 2.5. A fine"
-     " second-order method, but not MuJoCo's Euler. How many times does mjINT_EULER ask for the force in one step,"
-     " and which velocity moves its position?", "velocity-free"),
-    (SEMI, drift_kick_drift, "on the systems whose force ignores velocity this is the drift-kick-drift leapfrog:"
-     " halving dt divides its error by {halving} on a spring with m = 2.5. A fine second-order method, but not"
-     " MuJoCo's Euler. Where does mjINT_EULER take the force, and how far does it move the position?",
-     "velocity-free"),
-    (RK4, runge_kutta([[]] * 4, RK4_WEIGHTS), "all four of your slopes are taken at the start of the step, so the"
-     " blend is just the first slope: explicit Euler in disguise. How far out is each later slope sampled?", "all"),
-    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, mass_rule="forgot"), "your slopes use the force itself as the"
-     " acceleration." + MASS, "all"),
-    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, mass_rule="twice"), "you divide the force by m twice." + MASS, "all"),
-    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, mass_rule="times"), "you multiply the force by m where an acceleration"
-     " is wanted." + MASS, "all"),
+     " half kick, a drift, a half kick): " + SECOND + " How many times does mjINT_EULER ask for the force in one"
+     " step, and which velocity moves its position?", "velocity-free"),
+    (SEMI, drift_kick_drift, "on the systems whose force ignores velocity this is the drift-kick-drift leapfrog: "
+     + SECOND + " Where does mjINT_EULER take the force, and how far does it move the position?", "velocity-free"),
+    (RK4, runge_kutta([[]] * 4, RK4_WEIGHTS), "all four of your slopes are taken at the start of the step: explicit"
+     " Euler in disguise. How far out is each later slope sampled?", "all"),
     (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, stage_velocity=False), "your stages never hand their velocity to the"
-     " force: each asks with the starting v. With the chapter's forces nobody can tell; on the checker's damped"
-     " spring, whose force depends on v, you can." + STAGE, "all"),
+     " force: each asks with the starting v, which only a force that depends on v (the checker's damped spring)"
+     " shows. Which position and which velocity does each stage hand to force(q, v)?", "all"),
     (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, position_slope="start"), "your position slopes are all the starting"
      " velocity. The slope of q is the velocity: which velocity, at a stage half a step out?", "all"),
-    (RK4, runge_kutta([[], [0.5]], [0, 1]), "this is the midpoint method, RK2: a slope at the start, one at the"
-     " midpoint, the step taken with the midpoint one. It is second order. How many samples does RK4 take, where,"
-     " and how does it weigh them?", "all"),
+    (RK4, runge_kutta([[], [0.5]], [0, 1]), "this is the midpoint method, RK2: second order. How many samples does"
+     " RK4 take, where, and how does it weigh them?", "all"),
     (RK4, runge_kutta([[], [1]], [0.5, 0.5]), "this is Heun's method, a second-order Runge-Kutta: slopes at the start"
      " and the end, averaged. Which samples does RK4 add, and how does it weigh them?", "all"),
     (RK4, runge_kutta([[], [1 / 3], [-1 / 3, 1], [1, -1, 1]], [1 / 8, 3 / 8, 3 / 8, 1 / 8]), "this is Kutta's 3/8"
-     " rule: fourth order too (samples at a third and two thirds of the step, weights 1-3-3-1), but not the classical"
-     " RK4 of the chapter and MuJoCo's mj_RungeKutta. Where does the chapter's RK4 sample its two middle slopes?",
-     "all"),
+     " rule: fourth order too, but not the classical RK4 of the chapter and MuJoCo's mj_RungeKutta. Where does the"
+     " chapter's RK4 sample its two middle slopes?", "all"),
     (RK4, runge_kutta(CLASSICAL, [1 / 4] * 4), "your four slopes are weighted equally. Which two count double in"
      " RK4?", "all"),
+    (RK4, runge_kutta(CLASSICAL, [1 / 3, 1 / 6, 1 / 6, 1 / 3]), "your blend counts the end slopes double, the"
+     " midpoint ones once: halving dt divides its error by {halving} on a spring with m = 2.5. Which two count"
+     " double in RK4?", "all"),
+    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, scale=lambda dt: dt * 1.5), "the weights of your final blend add up"
+     " to 1.5, not 1. What do the chapter's add up to?", "all"),
+    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, scale=lambda dt: dt * 2), "the weights of your final blend add up to"
+     " 2, not 1. What do the chapter's add up to?", "all"),
+    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, scale=lambda dt: dt * 6 * 0.1667), "every change your step makes is"
+     " 1.0002 times RK4's: close to 1, not 1. Is a fraction written as a rounded decimal?", "all"),
+    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, scale=lambda dt: dt * dt), "every change your step makes is dt times"
+     " RK4's. How many times does a slope need dt to become a change?", "all"),
     (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, scale=lambda dt: 1.0), "your final update has no dt in it: it adds a"
      " blend of velocities to a position. What turns a slope into a change?", "all"),
     (RK4, runge_kutta([[], [1], [0, 1], [0, 0, 1]], RK4_WEIGHTS), "your midpoint stages are a full dt out. How far"
      " along the previous slope is a midpoint?", "all"),
-    (RK4, runge_kutta([[], [1], [0, 0.5], [0, 0, 1]], RK4_WEIGHTS), "your k2 is sampled a whole dt out; it is a"
-     " midpoint slope. How far along k1 is the midpoint?", "all"),
-    (RK4, runge_kutta([[], [0.5], [0, 1], [0, 0, 1]], RK4_WEIGHTS), "your k3 is sampled a whole dt out; it is a"
-     " midpoint slope. How far along k2 is the midpoint?", "all"),
+    (RK4, runge_kutta([[], [1], [0, 0.5], [0, 0, 1]], RK4_WEIGHTS), "your k2 is sampled a whole dt out. How far"
+     " along k1 is the midpoint?", "all"),
+    (RK4, runge_kutta([[], [0.5], [0, 1], [0, 0, 1]], RK4_WEIGHTS), "your k3 is sampled a whole dt out. How far"
+     " along k2 is the midpoint?", "all"),
     (RK4, runge_kutta([[], [0.5], [0.5], [0, 0, 1]], RK4_WEIGHTS), "your k3 steps along k1, so it repeats k2. Along"
      " which slope is the third sample taken?", "all"),
     (RK4, runge_kutta([[], [0.5], [0, 0.5], [0, 0, 0.5]], RK4_WEIGHTS), "your k4 is sampled half a step out. Where"
