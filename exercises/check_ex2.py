@@ -95,7 +95,7 @@ class Measured:
     def orbit(self) -> str:
         rows = self.runs[ex2_cases.CHAPTER.index("orbit")]
         drift = engine.energy_drift(ex2_cases.BUILT["orbit"]["energy"](rows[:, :3], rows[:, 3:]))
-        return "inf (it blew up)" if drift["diverged"] else f"{drift['rel_max']:.1%}"
+        return "inf (it blew up)" if drift["diverged"] else f"{drift['rel_max']:.1%}".replace("0.0%", "under 0.1%")
 
 
 def judge(name: str, path: Path, run: student_code.Run, indices: list) -> tuple[bool, str]:
