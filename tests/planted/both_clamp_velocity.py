@@ -1,4 +1,4 @@
-"""Stability hack: velocities clamped to +-20 m/s. Right where speeds stay small. EXPECT: fails on a whole run (freefall)."""
+"""Stability hack: velocities clamped to +-20 m/s. EXPECT: fails on a whole run (freefall)."""
 import numpy as np
 
 V_MAX = 20.0

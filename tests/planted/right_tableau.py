@@ -1,4 +1,4 @@
-"""Correct but unusual: RK4 from a Butcher tableau in a loop; semi-implicit with the force named first. EXPECT: solved."""
+"""Correct but unusual: RK4 from a Butcher tableau in a loop. EXPECT: solved."""
 A = [[], [0.5], [0.0, 0.5], [0.0, 0.0, 1.0]]
 B = [1 / 6, 1 / 3, 1 / 3, 1 / 6]
 

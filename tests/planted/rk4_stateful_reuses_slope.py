@@ -1,4 +1,4 @@
-"""Stateful: RK4 reuses the previous call's k4 as this call's k1 when fed its own output ("first same as last"). EXPECT: rk4 fails on the run."""
+"""Stateful: RK4 reuses the last call's k4 as k1 when fed its own output. EXPECT: fails on the run."""
 import numpy as np
 
 _last = {}

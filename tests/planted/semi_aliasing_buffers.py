@@ -1,4 +1,4 @@
-"""MuJoCo habit: no allocation, results written into module-level buffers that alias the inputs next call. EXPECT: fails on the run."""
+"""MuJoCo habit: results written into module buffers that alias the inputs. EXPECT: fails on the run."""
 import numpy as np
 
 _q_out = None

@@ -23,7 +23,7 @@ def rk4_step(q, v, m, force, dt):
     return q + dt / 6 * (k1q + 2 * k2q + 2 * k3q + k4q), v + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
 
 
-def semi_implicit_step(q, v, m, force, dt):
+def semi_implicit_step(q, v, m, force, dt):  # noqa: F811
     """Semi-implicit Euler."""
     # TODO: start from euler_step. Which velocity should move the position?
     raise NotImplementedError("semi_implicit_step is not written yet")

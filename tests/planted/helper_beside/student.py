@@ -1,6 +1,7 @@
 """Correct file using its own helper module. EXPECT: solved."""
 from mysteps import weights
 
+
 def euler_step(q, v, m, force, dt):
     a = force(q, v) / m
     return q + dt * v, v + dt * a
