@@ -62,8 +62,8 @@ def runge_kutta(stages, weights, stage_velocity=True, position_slope="stage", sc
 
 CLASSICAL, RK4_WEIGHTS = [[], [0.5], [0, 0.5], [0, 0, 1]], [1 / 6, 1 / 3, 1 / 3, 1 / 6]
 SEMI, RK4 = "semi_implicit_step", "rk4_step"
-SECOND = "halving dt divides its error by {halving} on a spring with m = 2.5. A fine second-order method, but not"\
-         " MuJoCo's Euler."
+HALVING = "halving dt divides its error by {halving} on a spring with m = 2.5."
+SECOND = HALVING + " A fine second-order method, but not MuJoCo's Euler."
 
 MISTAKES = [
     (SEMI, explicit_euler, "your step still moves the position with the old velocity: that is explicit Euler. On the"
@@ -88,13 +88,13 @@ MISTAKES = [
      " shows. Which position and which velocity does each stage hand to force(q, v)?", "all"),
     (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, position_slope="start"), "your position slopes are all the starting"
      " velocity. The slope of q is the velocity: which velocity, at a stage half a step out?", "all"),
-    (RK4, runge_kutta([[], [0.5]], [0, 1]), "this is the midpoint method, RK2: second order. How many samples does"
+    (RK4, runge_kutta([[], [0.5]], [0, 1]), "this is the midpoint method, RK2: " + HALVING + " How many samples does"
      " RK4 take, where, and how does it weigh them?", "all"),
-    (RK4, runge_kutta([[], [1]], [0.5, 0.5]), "this is Heun's method, a second-order Runge-Kutta: slopes at the start"
-     " and the end, averaged. Which samples does RK4 add, and how does it weigh them?", "all"),
+    (RK4, runge_kutta([[], [1]], [0.5, 0.5]), "this is Heun's method, slopes at the start and the end averaged: "
+     + HALVING + " Which samples does RK4 add, and how does it weigh them?", "all"),
     (RK4, runge_kutta([[], [1 / 3], [-1 / 3, 1], [1, -1, 1]], [1 / 8, 3 / 8, 3 / 8, 1 / 8]), "this is Kutta's 3/8"
-     " rule: fourth order too, but not the classical RK4 of the chapter and MuJoCo's mj_RungeKutta. Where does the"
-     " chapter's RK4 sample its two middle slopes?", "all"),
+     " rule: " + HALVING + " But it is not the classical RK4 of the chapter and MuJoCo's mj_RungeKutta: where does"
+     " that sample its two middle slopes?", "all"),
     (RK4, runge_kutta(CLASSICAL, [1 / 4] * 4), "your four slopes are weighted equally. Which two count double in"
      " RK4?", "all"),
     (RK4, runge_kutta(CLASSICAL, [1 / 3, 1 / 6, 1 / 6, 1 / 3]), "your blend counts the end slopes double, the"
