@@ -50,10 +50,26 @@ def test_reference_rk4_is_the_engines_rk4_line_for_line():
     assert body(solution) == body((REPO / "engine.py").read_text())
 
 
+def instructions(source):
+    """What the stub tells the student: module docstring, and each function's name, signature and docstring."""
+    tree = ast.parse(source)
+    return [ast.get_docstring(tree)] + [(f.name, ast.dump(f.args), ast.get_docstring(f))
+                                        for f in tree.body if isinstance(f, ast.FunctionDef)]
+
+
 def test_the_students_file_still_carries_the_stubs_instructions():
+    """Graded is tests/pristine/'s copy; a maintainer who edits the stub edits that copy too. Once a student has
+    started (a TODO filled in), their file is theirs and is not compared."""
     if STUDENT.read_text().count("raise NotImplementedError") < 2:
         pytest.skip("exercises/ex2_integrators.py has been worked on: only the untouched stub is compared")
-    assert STUDENT.read_text() == PRISTINE.read_text(), "edit the stub and tests/pristine/ together"
+    try:
+        student = instructions(STUDENT.read_text())
+    except SyntaxError:
+        pytest.skip("exercises/ex2_integrators.py does not parse right now: run python -m exercises.check_ex2")
+    pristine = instructions(PRISTINE.read_text())
+    assert student[0] == pristine[0], "the module docstrings of the stub and tests/pristine/ differ"
+    for item in pristine[1:]:
+        assert item in student[1:], f"{item[0]}: signature or docstring differ between the stub and tests/pristine/"
 
 
 RIGHTS = sorted(p.name for p in PLANTED.glob("right_*.py") if p.name not in ("right_spawns_sleeper.py",
