@@ -80,7 +80,9 @@ def test_a_signal_during_the_checkers_own_imports_is_one_line():
 
 
 def test_a_normal_end_reaps_what_the_file_started_and_does_not_wait_for_it(tmp_path):
-    (tmp_path / "sleeper.py").write_text(SLEEPER + "def f(x):\n    return x\n")
+    """A process and a thread of the file's own outlive its last answer: the checker neither waits nor leaves them."""
+    lingering = "import threading, time\nthreading.Thread(target=time.sleep, args=(600,)).start()\n"
+    (tmp_path / "sleeper.py").write_text(SLEEPER + lingering + "def f(x):\n    return x\n")
     started = time.monotonic()
     run = student_code.collect(tmp_path / "sleeper.py", "tests.collector_for_tests", [{"x": 1}], "test")
     assert run.results == {0: {"got": 1}} and time.monotonic() - started < 5

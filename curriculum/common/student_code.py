@@ -217,7 +217,7 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
             pass
         deadline, ended = time.monotonic() + time_limit, False
         while not ended and time.monotonic() < deadline:
-            ended = os.waitid(os.P_PID, child.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT) is not None
+            ended = _exited(child) or answers.endswith(DONE)  # its threads may outlive its last answer
             time.sleep(0.01 if not ended else 0)
     finally:
         _kill_group(child.pid)  # before the child is reaped: its group id cannot have been reused yet
@@ -278,6 +278,12 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
         run.stopped[stuck] = "time limit" if not ended else f"exit code {code}"
         return stuck
     return None
+
+
+def _exited(child) -> bool:
+    if hasattr(os, "waitid"):  # look without reaping: the group id stays the child's until _kill_group
+        return os.waitid(os.P_PID, child.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT) is not None
+    return child.poll() is not None  # macOS before Python 3.13 has no waitid; the group is killed at once
 
 
 def _kill_group(pid: int) -> None:
