@@ -102,7 +102,7 @@ PLANTED_MESSAGES = {
     "semi_as_explicit.py": (SEMI, "that is explicit Euler. On the chapter's orbit its energy error reaches 22.1% in"
                                   " 2,000 steps. Which velocity should move the position?"),
     "semi_position_first.py": (SEMI, "the other symplectic Euler, bounded too (on the chapter's orbit its energy"
-                                     " error stays within under 0.1% over 2,000 steps)"),
+                                     " error stays within 3.2e-04 over 2,000 steps)"),
     "semi_sign_error.py": (SEMI, "It differs from semi-implicit Euler on every system. On a damped spring with m ="
                                  " 2.5 (exact motion known), after 2 s at dt 0.01 it is 5.59 m from the exact motion"),
     "semi_forgot_mass.py": (SEMI, "It is right whenever m = 1 and wrong on a spring with m = 2.5"),
@@ -114,7 +114,7 @@ PLANTED_MESSAGES = {
     "semi_taylor.py": (SEMI, "velocity Verlet's Taylor step. Which velocity moves the position"),
     "semi_new_velocity_without_dt.py": (SEMI, "adds a velocity without multiplying it by dt"),
     "semi_hardcoded_force.py": (SEMI, "it never calls force"),
-    "semi_in_place.py": (SEMI, "it changes the q and v array it was given (an in-place update)"),
+    "semi_in_place.py": (SEMI, "it changes the q and v it was given (an in-place update)"),
     "semi_sys_exit.py": (SEMI, "your code ends Python with sys.exit() or exit() (exit code 0) during single steps"),
     "semi_os_exit.py": (SEMI, "ended by itself (exit code 0) during single steps from fresh states"),
     "semi_returns_none.py": (SEMI, "returns None: the function ends without returning (q_next, v_next)"),
