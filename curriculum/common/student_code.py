@@ -407,7 +407,8 @@ def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int
     from curriculum.common.predict import explain
 
     parser = OneLineParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("file", nargs="?", type=Path, default=default, help=f"{what} (default: {default.name})")
+    shown = f"{default.parent.name}/{default.name}"
+    parser.add_argument("file", nargs="?", type=Path, default=default, help=f"{what} (default: {shown})")
     args = parser.parse_args(argv)
     handle_signals(prog)
     problem = source_problem(args.file)
