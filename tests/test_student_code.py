@@ -102,6 +102,14 @@ def test_the_child_is_isolated_a_helper_imports_a_clash_is_named(tmp_path):
         student_code.clash_sentence(run.clashes)
 
 
+def test_collect_gives_the_callers_signal_handlers_back(tmp_path):
+    """Its handlers (kill the child, remove the scratch folder, exit) hold only while a child may run."""
+    (tmp_path / "mine.py").write_text("def f(x):\n    return x\n")
+    before = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
+    student_code.collect(tmp_path / "mine.py", "tests.collector_for_tests", [{"x": 1}], "test")
+    assert {number: signal.getsignal(number) for number in before} == before
+
+
 def test_a_flood_without_newlines_is_kept_bounded(tmp_path):
     (tmp_path / "flood.py").write_text("import sys\nwhile True:\n    sys.stdout.write('x' * 65536)\n")
     run = student_code.collect(tmp_path / "flood.py", "tests.collector_for_tests", [{"x": 1}], "test", time_limit=2)

@@ -17,6 +17,7 @@ again in a fresh child, so one endless loop does not hide the verdict on another
 
 import argparse
 import ast
+import contextlib
 import importlib
 import importlib.util
 import json
@@ -167,16 +168,16 @@ class ScratchProblem(Exception):
 def collect(path: Path, collector: str, tasks: list, prog: str, time_limit: float = 20.0) -> Run:
     """Run `tasks` (dicts; "group" names a task's group) on the student's file, in as many children as needed."""
     run, pending = Run(), list(range(len(tasks)))
-    handle_signals(prog)
-    while pending and run.imported is None and run.malformed is None:
-        stuck = _one_child(path, collector, tasks, pending, time_limit, run)
-        if stuck is None:
-            break
-        group = tasks[stuck].get("group")  # the stuck task's group is lost; the others get a fresh child
-        for i in pending:
-            if i not in run.results and (i == stuck or tasks[i].get("group") == group):
-                run.stopped[i] = run.stopped.get(stuck, "")
-        pending = [i for i in pending if i not in run.results and i not in run.stopped]
+    with stopping_cleanly(prog):
+        while pending and run.imported is None and run.malformed is None:
+            stuck = _one_child(path, collector, tasks, pending, time_limit, run)
+            if stuck is None:
+                break
+            group = tasks[stuck].get("group")  # the stuck task's group is lost; the others get a fresh child
+            for i in pending:
+                if i not in run.results and (i == stuck or tasks[i].get("group") == group):
+                    run.stopped[i] = run.stopped.get(stuck, "")
+            pending = [i for i in pending if i not in run.results and i not in run.stopped]
     return run
 
 
@@ -229,13 +230,13 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
         child.stdout.close()
         shutil.rmtree(scratch, ignore_errors=True)
         _active.pop("scratch", None)
-    run.printed = bytes(printed)
+    run.printed = run.printed or bytes(printed)  # a second child (after a stuck task) prints the same start again
     return _read_answers(bytes(answers), run, pending, ended, child.returncode)
 
 
 def _drain(fd: int, kept: bytearray, limit: int, run: Run | None) -> None:
     """Read the pipe to its end, keeping at most `limit` bytes: a file that floods cannot flood the checker."""
-    try:
+    with contextlib.suppress(OSError):  # closed under us after the time limit
         while chunk := os.read(fd, 65536):
             kept += chunk[: max(0, limit - len(kept))]
             if run is not None:
@@ -243,8 +244,6 @@ def _drain(fd: int, kept: bytearray, limit: int, run: Run | None) -> None:
             elif len(kept) >= limit:
                 kept += b"\n!overflow"
                 return
-    except OSError:  # closed under us after the timeout
-        pass
 
 
 def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: int) -> int | None:
@@ -287,14 +286,15 @@ def _exited(child) -> bool:
 
 
 def _kill_group(pid: int) -> None:
-    try:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
         os.killpg(pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        pass
 
 
-def handle_signals(prog: str) -> None:
-    """Ctrl-C and SIGTERM: kill the running child's group, remove its scratch folder, one line, 130 or 143."""
+@contextlib.contextmanager
+def stopping_cleanly(prog: str):
+    """Inside: Ctrl-C and SIGTERM kill the running child's group, remove its scratch folder, print one line and
+    exit 130 or 143. The handlers from before (guard()'s, pytest's) are back afterwards."""
+    previous = {number: signal.getsignal(number) for number in EXIT_CODES}
 
     def stop(number, frame):
         pid, scratch = _active.get("pid"), _active.get("scratch")
@@ -304,14 +304,18 @@ def handle_signals(prog: str) -> None:
             shutil.rmtree(scratch, ignore_errors=True)
         what = "interrupted" if number == signal.SIGINT else "terminated"
         done = ": your file's run was stopped and its scratch folder removed" if pid or scratch else ""
-        try:
+        with contextlib.suppress(OSError):
             os.write(2, f"{prog}: {what}{done}\n".encode())
-        finally:
-            os._exit(EXIT_CODES[number])
+        os._exit(EXIT_CODES[number])
 
     for number in EXIT_CODES:
-        if signal.getsignal(number) is not signal.SIG_IGN:
+        if previous[number] is not signal.SIG_IGN:  # nohup and friends ignore on purpose
             signal.signal(number, stop)
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 # --- comparing outputs with the reference's (numpy arrays, passed in) ---
@@ -410,7 +414,6 @@ def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int
     shown = f"{default.parent.name}/{default.name}"
     parser.add_argument("file", nargs="?", type=Path, default=default, help=f"{what} (default: {shown})")
     args = parser.parse_args(argv)
-    handle_signals(prog)
     problem = source_problem(args.file)
     if problem and problem[0] == 2:
         parser.exit(2, f"{prog}: error: {problem[1]}\n")
