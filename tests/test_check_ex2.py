@@ -145,6 +145,8 @@ PLANTED_MESSAGES = {
     "both_reads_stdin.py": ("both", "it raised EOFError: EOF when reading a line in <module>(), line 4 of"
                                     " both_reads_stdin.py"),
     "both_returns_junk.py": ("both", "returns a q_next that is not numbers: str"),
+    "both_floods_without_newlines.py": ("both", "importing your file did not finish within 3 s"),
+    "both_forges_answers.py": ("both", "your file's run did not finish: what it sent back could not be read"),
     "both_clamp_velocity.py": ("both", "on the chapter's freefall (m = 1), at dt 0.01, it parts from the engine's at"
                                        " step 204 of 2,000, where the engine's speed is 20.3 m/s, and ends 1.58e+03 m"
                                        " away"),
@@ -207,7 +209,7 @@ def test_every_planted_file_has_its_expected_message():
 @pytest.mark.parametrize("planted", [pytest.param(name, marks=() if name in QUICK else pytest.mark.slow)
                                      for name in PLANTED_MESSAGES])
 def test_planted_file_gets_the_message_that_names_it(planted, capsys, monkeypatch):
-    if planted in ("semi_endless.py", "semi_slow.py"):
+    if planted in ("semi_endless.py", "semi_slow.py", "both_floods_without_newlines.py"):
         monkeypatch.setattr(check_ex2, "TIME_LIMIT", 3.0)  # stopped, not waited for
     wrong, message = PLANTED_MESSAGES[planted]
     code, out = check(PLANTED / planted, capsys)
