@@ -1,4 +1,4 @@
-"""Correct file using its own helper module. EXPECT: solved."""
+"""A right file whose helper module is named random.py: Python's random is imported instead. EXPECT: the clash."""
 from random import weights
 
 

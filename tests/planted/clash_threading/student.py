@@ -1,4 +1,4 @@
-"""Correct but unusual: RK4 from a Butcher tableau in a loop. EXPECT: solved."""
+"""A right file with a scratch threading.py beside it. EXPECT: solved, and a sentence naming the clash."""
 A = [[], [0.5], [0.0, 0.5], [0.0, 0.0, 1.0]]
 B = [1 / 6, 1 / 3, 1 / 3, 1 / 6]
 
