@@ -1,35 +1,45 @@
-"""The systems check_ex2 runs your steps on, and the exact motion of the ones that have one.
-
-The chapter's systems all have mass 1 and forces that ignore velocity, so a step that forgets
-`/ m`, or hands a stage the wrong velocity, still looks right on them. These cases add a mass
-other than 1 and forces that depend on velocity (a damped spring, an orbit with drag), so that
-every way of mishandling m or v changes the numbers. Springs, damped or not, are solved exactly.
+"""The systems check_ex2 runs your steps on, and collect(), which runs them: in the checker's child on
+your steps, in the checker on the engine's, so both go through the same code. The chapter's three systems
+have mass 1 and forces that ignore velocity: a step that forgets `/ m`, or hands a stage the wrong
+velocity, looks right on them. The checker's own add masses other than 1 and forces that depend on v.
 """
 
 import math
 
 import numpy as np
 
+import engine
+from curriculum.common.student_code import NotOutputs, as_arrays
+
+CHAPTER = ("orbit", "spring", "freefall")  # built by the engine, with the chapter's constants
 # name: (what it is, m, spring constant k, damping c, inverse-square pull mu, quadratic drag)
-CASES = {
-    "spring": ("the chapter's spring (m = 1)", 1.0, 4.0, 0.0, 0.0, 0.0),
-    "orbit": ("the chapter's orbit (m = 1)", 1.0, 0.0, 0.0, 1.0, 0.0),
+OWN = {
     "heavy_spring": ("a spring with m = 2.5", 2.5, 3.0, 0.0, 0.0, 0.0),
     "damped_spring": ("a damped spring with m = 1, force -k q - c v", 1.0, 4.0, 0.5, 0.0, 0.0),
     "heavy_damped_spring": ("a damped spring with m = 2.5", 2.5, 3.0, 0.8, 0.0, 0.0),
     "dragged_orbit": ("an orbit with drag, m = 0.7", 0.7, 0.0, 0.0, 1.0, 0.3),
 }
-MASS_ONE = ("spring", "orbit", "damped_spring")
-VELOCITY_FREE = ("spring", "orbit", "heavy_spring")
+STATE = ("q_next", "v_next")  # what a step returns
+BUILT = {name: engine.build_system(name, np.random.default_rng(0)) for name in CHAPTER}
+
+
+def describe(name: str) -> str:
+    return f"the chapter's {name} (m = 1)" if name in CHAPTER else OWN[name][0]
 
 
 def mass(name: str) -> float:
-    return CASES[name][1]
+    return BUILT[name]["m"] if name in CHAPTER else OWN[name][1]
+
+
+def velocity_free(name: str) -> bool:  # the chapter's forces all ignore velocity
+    return name in CHAPTER or not (OWN[name][3] or OWN[name][5])
 
 
 def force_law(name: str):
-    """force(q, v) for the case: Hooke, damping, an inverse-square pull, quadratic drag."""
-    _, m, k, c, mu, drag = CASES[name]
+    """force(q, v): the chapter's own, or Hooke, damping, an inverse-square pull and quadratic drag."""
+    if name in CHAPTER:
+        return BUILT[name]["force"]
+    _, m, k, c, mu, drag = OWN[name]
 
     def spring(q, v):
         return q * -k - v * c if c else q * -k
@@ -38,36 +48,57 @@ def force_law(name: str):
         x, y, z = q.tolist()
         r = math.sqrt(x * x + y * y + z * z)
         pull = -mu * m / (r * r * r) if r > 0.0 else math.nan
-        if not drag:
-            return q * pull
         vx, vy, vz = v.tolist()
         return q * pull - v * (drag * math.sqrt(vx * vx + vy * vy + vz * vz))
 
     return orbit if mu else spring
 
 
-def energy(name: str, q, v):
-    """Kinetic + potential over the last axis (springs and orbits; drag and damping make it fall)."""
-    _, m, k, _, mu, _ = CASES[name]
-    q, v = np.asarray(q), np.asarray(v)
-    potential = 0.5 * k * (q * q).sum(axis=-1)
-    if mu:
-        potential = potential - mu * m / np.sqrt((q * q).sum(axis=-1))
-    return 0.5 * m * (v * v).sum(axis=-1) + potential
+def exact_position(name: str, q0, v0, t: float) -> np.ndarray:
+    """Where a spring of OWN (damped or not) is at time t, by the engine's closed form."""
+    _, m, k, c, _, _ = OWN[name]
+    return engine.damped_oscillator(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), k, m, c, [t])[0]
 
 
-def exact_spring(name: str, q0, v0, t: float):
-    """Exact (q, v) at time t of a spring, damped or not: each axis is x'' = -(k/m) x - (c/m) x'.
+def collect(steps, task: dict) -> dict:
+    """Run one task with steps.<task["function"]>: single steps from fresh states ("probes"), or one whole
+    run, each step fed its own output. Returns plain lists, which travel as JSON."""
+    step = getattr(steps, task["function"], None)
+    if not callable(step):
+        return {"problem": "missing" if step is None else f"not a function: it is a {type(step).__name__}"}
+    calls = [0]
 
-    With g = c / 2m and w the damped frequency sqrt(k/m - g^2):
-    x(t) = e^-gt (x0 cos wt + (v0 + g x0) / w sin wt),  v(t) = e^-gt (v0 cos wt - (k/m x0 + g v0) / w sin wt).
-    """
-    _, m, k, c, mu, drag = CASES[name]
-    assert not mu and not drag, "only springs have a closed form here"
-    g, w0_sq = c / (2.0 * m), k / m
-    w = math.sqrt(w0_sq - g * g)
-    decay, cos, sin = math.exp(-g * t), math.cos(w * t), math.sin(w * t)
-    q0, v0 = np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)
-    q = decay * (q0 * cos + (v0 + g * q0) / w * sin)
-    v = decay * (v0 * cos - (w0_sq * q0 + g * v0) / w * sin)
-    return q, v
+    def force_of(name):
+        law = force_law(name)
+
+        def force(q, v):
+            calls[0] += 1
+            return law(q, v)
+
+        force.__qualname__ = "force"  # a student's wrong call reads "force() takes 2 positional arguments"
+        return force
+
+    np.seterr(all="ignore")  # a diverging step is measured, not warned about
+    try:
+        if task["kind"] == "probes":
+            outputs, counts, changed = [], [], set()
+            for probe in task["probes"]:
+                q, v = np.array(probe["q"]), np.array(probe["v"])
+                calls[0] = 0
+                step_taken = step(q, v, mass(probe["system"]), force_of(probe["system"]), probe["dt"])
+                q_next, v_next = as_arrays(step_taken, STATE, (3,), np)
+                outputs.append([q_next.tolist(), v_next.tolist()])
+                counts.append(calls[0])
+                changed |= {name for name, given in (("q", q), ("v", v)) if given.tolist() != probe[name]}
+            return {"outputs": outputs, "calls": counts, "changed": sorted(changed)}
+        q, v = np.array(task["q0"]), np.array(task["v0"])
+        m, force, rows, reused = mass(task["system"]), force_of(task["system"]), [q.tolist() + v.tolist()], None
+        for k in range(1, task["steps"] + 1):
+            q_next, v_next = as_arrays(step(q, v, m, force, task["dt"]), STATE, (3,), np)
+            if reused is None and any(np.shares_memory(a, b) for a in (q_next, v_next) for b in (q, v)):
+                reused = k
+            rows.append(q_next.tolist() + v_next.tolist())
+            q, v = q_next, v_next
+        return {"rows": rows, "reused": reused}
+    except NotOutputs as problem:
+        return {"problem": str(problem)}
