@@ -8,28 +8,23 @@ a few dozen states equal the engine's and its whole runs (each step fed its own 
 engine's. Otherwise it names the usual mistake it sees, or says what it measured. Exit code 0: both solved.
 """
 
-import os
 import sys
 
-if __package__ in (None, ""):  # run as a file (python exercises/check_ex2.py): make the repo importable
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from curriculum.common.exercise import start
 
-from curriculum.common.interrupts import guard  # noqa: E402
+start(__file__)  # first: Ctrl-C is one line from here on, and the checker runs as a file too
 
-if __name__ == "__main__":  # run, not imported (tests import it): Ctrl-C or SIGTERM from here on is one line
-    guard("python -m exercises.check_ex2")
+import math
+from pathlib import Path
+from types import SimpleNamespace
 
-import math  # noqa: E402
-from pathlib import Path  # noqa: E402
-from types import SimpleNamespace  # noqa: E402
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-import engine  # noqa: E402
-from curriculum.common import student_code  # noqa: E402
-from curriculum.common.student_code import agrees  # noqa: E402
-from exercises.support import ex2_cases  # noqa: E402
-from exercises.support.ex2_mistakes import MISTAKES  # noqa: E402
+import engine
+from curriculum.common import student_code
+from curriculum.common.student_code import agrees
+from exercises.support import ex2_cases
+from exercises.support.ex2_mistakes import MISTAKES
 
 PROG, DEFAULT_FILE = "python -m exercises.check_ex2", Path(__file__).resolve().parent / "ex2_integrators.py"
 METHODS = {"semi_implicit_step": ("semi-implicit Euler", engine.semi_implicit_step, 1, 1),
