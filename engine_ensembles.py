@@ -111,10 +111,10 @@ def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
     # highest and lowest energy between one kept step and the next, carried on: (len(kept), N) each
     starts = np.concatenate([[0], kept[:-1] + 1])
     highest = np.maximum.accumulate(np.maximum.reduceat(energies, starts, axis=0), axis=0)
+    worst = engine.relative_energy_error(highest, e0=energies[0])
+    del highest  # (len(kept), N) arrays: at most three at a time
     lowest = np.minimum.accumulate(np.minimum.reduceat(energies, starts, axis=0), axis=0)
-    above, below = (engine.relative_energy_error(np.vstack([energies[:1], extreme]))[1:]
-                    for extreme in (highest, lowest))
-    worst = np.maximum(above, -below)
+    np.maximum(worst, -engine.relative_energy_error(lowest, e0=energies[0]), out=worst)
     worst[~np.isfinite(worst)] = np.inf  # a diverged member sorts last
     with np.errstate(all="ignore"):  # a median of two errors near the float limit overflows to inf (not drawn)
         return np.stack([worst.min(axis=1), np.median(worst, axis=1), worst.max(axis=1)], axis=1)
@@ -192,7 +192,7 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
                  for x in (d["rel_final"], d["rel_max"])]  # '-': every member diverged
         print(f"{name:<14}{cells[0]}  {cells[1]}  {d['diverged']:>8,}")
     if "ordering_holds" in block:
-        head = "energy drift ordering euler >> semi_implicit(bounded) > rk4:"
+        head = f"{engine.ORDERING}:"
         if block["ordering_not_judged"] == len(seeds):
             print(f"{head} cannot judge {'the one seed' if len(seeds) == 1 else f'any of the {len(seeds):,} seeds'}")
         else:
@@ -236,6 +236,7 @@ def main(args, steps: int, started: float) -> int:
         ensemble[name] = summarize_ensemble(energies, positions, kept, args.rerun)
         runs[name] = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
         drifts[name] = engine.drift_with_final_position(runs[name])
+        del positions, velocities, energies  # every member's run, freed before the next integrator's is made
     block = ensemble_block(args.system, seeds, ensemble)
     metrics = engine.build_metrics(args.system, args.dt, steps, args.seed, drifts, ensemble=block)
     engine.write_outputs(args, system, runs, kept, metrics, ensemble)
