@@ -17,7 +17,7 @@ SIMD_OFF = {"NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR X86_V3"}  
 
 # Run in a child process so numpy starts with the SIMD level under test; prints one hash of the batches.
 MEMBERS_VS_SINGLES = """
-import hashlib, numpy as np, engine
+import hashlib, numpy as np, engine, engine_ensembles as ensembles
 seeds, digest = {seeds}, hashlib.sha256()
 for system_name in engine.SYSTEMS:
     ensemble = ensembles.build_ensemble(system_name, seeds)
