@@ -3,7 +3,7 @@
     python -m exercises.ex4_long_run                     # the question
     python -m exercises.ex4_long_run --predict ORBITS    # commit (a number of orbits), then measure
 
-The chapter says RK4's tiny energy error creeps one way, so that on a long enough run semi-implicit
+The chapter says RK4's tiny energy error keeps creeping, so that on a long enough run semi-implicit
 Euler's bounded wobble wins. Here we measure when. At coarse timesteps, where it happens within
 seconds of computing, RK4 runs until its relative energy error first leaves the band semi-implicit
 Euler stays inside; the crossovers at three timesteps show how it scales, and two independent
