@@ -1,8 +1,17 @@
 """Helpers shared by the tests: run engine.py the way a student does."""
 
+import signal
 import subprocess
 import sys
 from pathlib import Path
+
+# A runner may start the suite with Ctrl-C or SIGTERM ignored (a background job of a non-interactive shell is
+# started that way); the programs under test keep an ignored signal ignored, on purpose. The signal tests need
+# them delivered, to this process and to the children it starts (a handled signal is default again after exec).
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+if signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 REPO = Path(__file__).resolve().parents[1]
 ENGINE = REPO / "engine.py"
