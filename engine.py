@@ -372,8 +372,6 @@ def integrators_for(system: dict) -> dict:
 
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
 CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
-ROUNDOFF_DRIFT = 1e-12  # explicit Euler drifting less than this: every drift is round-off, nothing to judge
-
 
 def simulate(step_fn, system: dict, dt: float, steps: int, every: int = 1, progress=None):
     """Integrate `system` for `steps` steps of `dt`. Returns (positions, velocities, energies).
@@ -453,7 +451,7 @@ def energy_drift(energies: np.ndarray) -> dict:
     """Energy error relative to the start: the numbers the chapter is about.
 
     rel_final: signed drift at the last step (explicit Euler: large and positive).
-    rel_max: worst absolute excursion anywhere (bounded for semi-implicit, growing for Euler).
+    rel_max: worst absolute excursion anywhere (how it behaves as the run grows: exercise 1).
     If the energy overflowed or went NaN, the figures are None and diverged_at_step says when.
     """
     relative = relative_energy_error(energies)
@@ -473,7 +471,8 @@ def energy_drift(energies: np.ndarray) -> dict:
     }
 
 
-ORDERING = "energy drift ordering euler >> semi_implicit > rk4"  # |euler final| > semi max > rk4 max
+ORDERING = "energy drift ordering euler >> semi_implicit > rk4"  # |euler final| > semi max > rk4 max, per run
+ROUNDOFF_DRIFT = 1e-12  # explicit Euler drifting less than this: every drift is round-off, nothing to judge
 
 
 def judge_ordering(drifts: dict):
@@ -511,11 +510,8 @@ def did_not_move(positions: np.ndarray, velocities: np.ndarray) -> bool:
 
 def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: dict,
                   damping: float | None = None, solution: dict | None = None, ensemble: dict | None = None) -> dict:
-    """The metrics.json payload: no wall-clock, nothing machine-dependent.
-
-    A damped system adds its damping and "solution": each integrator against the closed form;
-    an --ensemble run adds its "ensemble" block.
-    """
+    """The metrics.json payload: no wall-clock, nothing machine-dependent. A damped system adds its damping and
+    "solution" (each integrator against the closed form); an --ensemble run adds its "ensemble" block."""
     metrics = {"system": system_name, "dt": dt, "steps": steps, "seed": seed, "drift": rounded(drifts)}
     if solution is not None:
         metrics.update(damping=damping, solution=rounded(solution))
@@ -526,13 +522,14 @@ def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: di
 
 def print_report(system_name: str, dt: float, steps: int, drifts: dict) -> None:
     print(f"integrated {system_name} for {steps} steps of {dt} s -> {sim_time(steps * dt)} s of sim time")
-    print(f"{'integrator':<14}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
+    w = max(14, *(len(name) + 2 for name in drifts))  # the names' column: 14, or wider for a longer name
+    print(f"{'integrator':<{w}}{'E0':>12}{'E_final':>14}{'rel_final':>14}{'rel_max':>14}")
     for name, d in drifts.items():
         if d["diverged"]:
-            step = d["diverged_at_step"]
-            print(f"{name:<14}{cell(d['e0'], 12)}  diverged: energy error non-finite from step {step:,}")
+            print(f"{name:<{w}}{cell(d['e0'], 12)}  diverged: energy error non-finite from step"
+                  f" {d['diverged_at_step']:,}")
         else:
-            print(f"{name:<14}{cell(d['e0'], 12)}{cell(d['e_final'], 14)}"
+            print(f"{name:<{w}}{cell(d['e0'], 12)}{cell(d['e_final'], 14)}"
                   f"{d['rel_final']:>+14.4e}{d['rel_max']:>14.4e}")
     if ordering_is_judged(system_name, drifts):  # the headline, stated as an ordering so it holds for any seed
         print(f"{ORDERING}: {verdict_line(drifts)}")
@@ -555,7 +552,7 @@ def verdict_line(drifts: dict) -> str:
 # --- the run: flags and main ---
 
 MAX_SEED = 2**64 - 1  # any seed numpy takes would do; past 4,300 digits Python cannot even print one
-MAX_DAMPING = 1e6  # N s/m: dt b/m = 10,000, far past docs/damping.md's map; near 1.4e9 the exact motion overflows
+MAX_DAMPING = 1e6  # N s/m: dt b/m = 10,000, the map's last column; from ~7e8 the recording's exact velocity overflows
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -676,8 +673,7 @@ def drift_with_final_position(run: tuple) -> dict:
 def write_outputs(args, system: dict, runs: dict, kept, metrics: dict, ensemble: dict | None = None) -> None:
     """metrics.json and, unless --no-rerun, engine.rrd, written together (metrics.json last)."""
     metrics["run_id"] = content_id(metrics_text(metrics))  # same flags, same id; engine.rrd carries it too
-    files = {}
-    args.recording_note = None
+    files, args.recording_note = {}, None
     if args.rerun:
         from engine_recording import record  # Rerun loads only when a recording is asked for
 
