@@ -72,6 +72,21 @@ def test_semi_implicit_moves_position_with_the_new_velocity():
     assert np.array_equal(qe, q)
 
 
+@pytest.mark.parametrize("system_name", list(engine.SYSTEMS))
+def test_each_conservative_force_is_minus_the_gradient_of_its_energy(system_name):
+    """Independent of any closed form: a conservative system's force and energy must agree, F = -grad V, or its
+    energy is not the referee of its motion (central differences, h = 1e-6: error ~1e-9 of the force)."""
+    system = engine.build_system(system_name, np.random.default_rng(0))
+    rng, h = np.random.default_rng(1), 1e-6
+    for _ in range(5):
+        q = system["q0"] + rng.uniform(-0.2, 0.2, 3)
+        v = system["v0"] + rng.uniform(-0.2, 0.2, 3)
+        step = h * np.eye(3)
+        gradient = np.array([(system["energy"](q + d, v) - system["energy"](q - d, v)) / (2 * h) for d in step])
+        force = system["force"](q, v)
+        np.testing.assert_allclose(force, -gradient, rtol=0, atol=1e-6 * (1 + np.abs(force).max()))
+
+
 def test_energy_is_the_same_for_one_state_and_for_a_history():
     for system in engine.SYSTEMS:
         sys_ = engine.build_system(system, np.random.default_rng(3))
