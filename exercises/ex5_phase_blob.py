@@ -26,7 +26,7 @@ import engine
 from curriculum.common import recording as course
 from curriculum.common import write_atomic
 from curriculum.common.cli import OneLineParser, recording_wanted
-from curriculum.common.outputs import folder_problem, one_line_failures
+from curriculum.common.outputs import one_line_failures, recording_problem
 from curriculum.common.predict import PerName, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
@@ -196,15 +196,6 @@ def record(path: Path, table: dict) -> None:
 # --- the exercise ---
 
 
-def rrd_problem(path: Path) -> str | None:
-    """Why the recording cannot go to `path`, or None: it must be an .rrd file in a folder we can write,
-    so that a slip such as `--rrd README.md` never overwrites something else."""
-    if path.suffix != ".rrd":
-        return f"{path} does not end in .rrd"
-    if path.exists() and not path.is_file():
-        return f"{path} is not a file"
-    return folder_problem(path.parent, [path.name])
-
 @one_line_failures("exercises.ex5_phase_blob")
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex5_phase_blob", description=__doc__,
@@ -217,7 +208,7 @@ def main(argv=None) -> int:
                 PerName(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv)
     args = parser.parsed
     args.rerun = recording_wanted(parser.prog, args.rerun)  # not under RERUN=off, Rerun's own switch
-    problem = rrd_problem(args.rrd) if args.rerun else None
+    problem = recording_problem(args.rrd) if args.rerun else None
     if problem:
         parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")
 

@@ -97,9 +97,9 @@ def main(argv=None) -> int:
     guess = ask(parser, QUESTION, PerName(list(SYSTEMS), CHOICES), argv)
     args = parser.parsed
     if args.rerun:
-        from exercises.support.shadow_recording import rrd_problem
+        from curriculum.common.outputs import recording_problem
 
-        problem = rrd_problem(args.rrd)
+        problem = recording_problem(args.rrd)
         if problem:
             parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")
 

@@ -644,3 +644,13 @@ def _silence_stdout() -> None:
         os.close(devnull)
     except (OSError, ValueError, AttributeError):
         pass
+
+
+def recording_problem(path: Path) -> str | None:
+    """Why an exercise's recording cannot go to `path`, or None: it must be an .rrd file in a folder we can
+    write, so that a slip such as `--rrd README.md` never overwrites something else."""
+    if path.suffix != ".rrd":
+        return f"{path} does not end in .rrd"
+    if path.exists() and not path.is_file():
+        return f"{path} is not a file"
+    return folder_problem(path.parent, [path.name])

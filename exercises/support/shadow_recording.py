@@ -8,12 +8,10 @@ that rounding alone could have moved E~ in that run (the exercise's round-off bo
 is here, loaded only when the exercise records; it opens the course's way (curriculum/common/recording.py).
 """
 
-from pathlib import Path
 
 import numpy as np
 
 from curriculum.common import recording as course
-from curriculum.common.outputs import folder_problem
 from exercises.support.shadow import FLOOR, STEPS, worst_so_far
 
 APPLICATION_ID = "zero2robot-ch3_3-ex7"
@@ -23,16 +21,6 @@ LOOKS = {"energy": course.Look(course.COLOURS["semi_implicit"], "E: energy (semi
 TOP = 0.5  # a little above log10 = 0, an error as large as the quantity itself: every curve fits under it
 LEGEND_ROOM = 3.5  # decades below the floor kept empty for the legend, so it covers no curve
 BOUND_GREY = (90, 90, 90)  # darker than course.GREY: the bound is a loose ceiling, the floor the real bottom
-
-
-def rrd_problem(path: Path) -> str | None:
-    """Why the recording cannot go to `path`, or None: an .rrd file in a folder we can write, so that a slip
-    such as `--rrd README.md` never overwrites something else (exercise 5's check, the same words)."""
-    if path.suffix != ".rrd":
-        return f"{path} does not end in .rrd"
-    if path.exists() and not path.is_file():
-        return f"{path} is not a file"
-    return folder_problem(path.parent, [path.name])
 
 
 def record(runs: dict) -> bytes:
