@@ -178,7 +178,8 @@ def unrecognised(measured: Measured, method: str, nominal: int) -> str:
         seen.append(f"It differs from {method} on {wrong}.")
     q_right, v_right = agrees(mine[:, :1], theirs[:, :1]).all(), agrees(mine[:, 1:], theirs[:, 1:]).all()
     if q_right != v_right:
-        seen.append(f"Its {'q_next' if q_right else 'v_next'} is right; the other is not.")
+        right, wrong = ("q_next", "v_next") if q_right else ("v_next", "q_next")
+        seen.append(f"Its {right} is right; its {wrong} is not.")
     if int(np.median(measured.calls)) != METHODS[measured.name][3]:
         seen.append(f"It calls force {int(np.median(measured.calls))} times per step; {method} calls it"
                     f" {METHODS[measured.name][3]}.")
