@@ -411,7 +411,8 @@ if __name__ == "__main__":
                       for n in (round(t / dt) for t in (1.0, 2.0, 3.0, 4.0, 5.0))]
             ladders.setdefault(name, []).append((max(abs(a["work_mismatch"]) for a in audits),
                                                  max(a["err_max"] for a in audits)))
-    print(f"damped_spring b {engine.DAMPING}, 5 s, dt 0.02 halved 3 times; worst over t = 1..5 s of")
+    print(f"damped_spring b {engine.DAMPING}, 5 s, dt 0.02 halved 3 times; the worst energy audit at t = 1..5 s,"
+          " and the worst |q - q_exact| over the whole run:")
     for column, what in ((0, "|E lost - damper work| / E0"), (1, "|q - q_exact|")):
         print(f"  {what}:")
         for name, ladder in ladders.items():
