@@ -373,6 +373,7 @@ def integrators_for(system: dict) -> dict:
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
 CHUNK_VALUES = 100_000  # numbers per chunk of states whose energy simulate() evaluates in one call
 
+
 def simulate(step_fn, system: dict, dt: float, steps: int, every: int = 1, progress=None):
     """Integrate `system` for `steps` steps of `dt`. Returns (positions, velocities, energies).
 

@@ -55,17 +55,21 @@ def measure(system_name: str = "orbit", seed: int = 0) -> dict:
             errors["energy"][name].append(engine.energy_drift(energies)["rel_max"])
     return errors
 
+
 def shrink_factors(rung_errors: list, floor: float) -> list:
     """error(dt) / error(dt / 2) down the ladder; None where the finer error is below the floor."""
     return [coarse / fine if fine > floor else None for coarse, fine in zip(rung_errors, rung_errors[1:], strict=False)]
+
 
 def settled(factors: list) -> float | None:
     """What the ladder converges to: the last factor above the round-off floor."""
     usable = [f for f in factors if f is not None]
     return usable[-1] if usable else None
 
+
 def nearest_power_of_two(factor: float) -> int:
     return 2 ** round(math.log2(factor))
+
 
 def print_ladder(errors: dict) -> None:
     for measure_name, by_integrator in errors.items():
@@ -77,6 +81,7 @@ def print_ladder(errors: dict) -> None:
             span = f"dt {ladder[0]:g} -> {ladder[-1]:g}:"
             print(f"  {name:<15}{span:<24}"
                   + "".join(f"{f:>8.2f}" if f else f"{'(round-off)':>12}" for f in cells))
+
 
 def story(system_name: str, errors: dict) -> list:
     """The explanation, from this run's numbers: every row of both tables, for this system."""
@@ -119,6 +124,7 @@ def story(system_name: str, errors: dict) -> list:
                  " and at which dt, before you quote a factor.")
     return lines
 
+
 @one_line_failures("exercises.ex3_halve_dt")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex3_halve_dt", description=__doc__,
@@ -145,6 +151,7 @@ def main(argv=None) -> int:
     print(f"{right} of 3.")
     explain(*story(system_name, errors))
     return 0
+
 
 if __name__ == "__main__":
     sys.exit(main())

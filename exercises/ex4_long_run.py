@@ -34,9 +34,11 @@ CHOICES = [10, 100, 1_000, 10_000, 100_000]  # orbits
 CHUNK = 4_000  # steps per simulate() call: short enough to stop soon after the last crossover
 MAX_STEPS = 400_000
 
+
 def batch(system: dict, n: int) -> dict:
     """n copies of one body, to step at n different timesteps at once (dt is then an (n, 1) array)."""
     return {**system, "q0": np.tile(system["q0"], (n, 1)), "v0": np.tile(system["v0"], (n, 1))}
+
 
 def semi_implicit_bands(system: dict, dts: list, period: float) -> np.ndarray:
     """Worst relative energy excursion of semi-implicit Euler at each dt, over at least 3 orbits.
@@ -46,6 +48,7 @@ def semi_implicit_bands(system: dict, dts: list, period: float) -> np.ndarray:
     _, _, energies = engine.simulate(engine.semi_implicit_step, batch(system, len(dts)),
                                      np.array(dts)[:, None], steps)
     return np.abs(energies - energies[0]).max(axis=0) / np.abs(energies[0])
+
 
 def rk4_crossovers(system: dict, dts: list, bands: np.ndarray, progress=None) -> tuple[np.ndarray, np.ndarray]:
     """First step at which RK4's |E - E0| / |E0| exceeds the band, at each dt (-1 if not within MAX_STEPS),
@@ -72,10 +75,12 @@ def rk4_crossovers(system: dict, dts: list, bands: np.ndarray, progress=None) ->
             progress(done, crossed)
     return crossed, np.concatenate(chapter_history)
 
+
 def show_progress(done: int, crossed: np.ndarray) -> None:
     waiting = [f"{dt:g}" for dt, step in zip(TIMESTEPS, crossed, strict=False) if step < 0]
     line = f"  {done:,} RK4 steps; still inside the band at dt {', '.join(waiting)}" if waiting else ""
     print(f"\r{line:<72}", end="" if waiting else "\r", file=sys.stderr, flush=True)
+
 
 @one_line_failures("exercises.ex4_long_run")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
@@ -149,6 +154,7 @@ def main(argv=None) -> int:
         " also weigh cost: one force evaluation per step instead of four.",
     )
     return 0
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -45,10 +45,12 @@ def spring():
     k = -force(np.array([1.0, 0.0, 0.0]), np.zeros(3))[0]  # force per metre of stretch
     return m, force, k, math.sqrt(k / m)
 
+
 def energy(x, v):
     """The spring's true energy along x: kinetic + spring."""
     m, _, k, _ = spring()
     return 0.5 * m * v * v + 0.5 * k * x * x
+
 
 def blob_edge(points: int = EDGE_POINTS):
     """(q, v), each (points, 3): the disc's edge in order round the circle, all motion along x."""
@@ -57,6 +59,7 @@ def blob_edge(points: int = EDGE_POINTS):
     q[:, 0] = CENTRE[0] + RADIUS * np.cos(angle)
     v[:, 0] = CENTRE[1] + RADIUS * np.sin(angle)
     return q, v
+
 
 def shoelace_areas(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Area inside each closed polygon (x[k, i], y[k, i]) over i, one per row k, by the shoelace formula.
@@ -89,6 +92,7 @@ def run_blob(name: str, dt: float, steps: int):
             x[i], vx[i] = q[:, 0], v[:, 0]
     return shoelace_areas(x, vx), x, vx
 
+
 def one_step_determinant(name: str, h: float) -> tuple[float, float]:
     """(det - 1, trace) of one step's 2x2 matrix on the harmonic oscillator, h = omega * dt.
 
@@ -102,14 +106,17 @@ def one_step_determinant(name: str, h: float) -> tuple[float, float]:
     h2 = h * h
     return -h2 * h2 * h2 / 72.0 + h2 * h2 * h2 * h2 / 576.0, 2.0 - h2 + h2 * h2 / 12.0
 
+
 def closed_form_ratio(name: str, h: float, steps: int) -> float:
     """det ** steps - 1, computed as expm1(steps * log1p(det - 1)) to keep the small ones' digits."""
     return math.expm1(steps * math.log1p(one_step_determinant(name, h)[0]))
+
 
 def what_the_area_does(ratio_minus_one: float) -> str:
     if ratio_minus_one > SAME:
         return "grows"
     return "shrinks" if ratio_minus_one < -SAME else "stays"
+
 
 def measure(dt: float, steps: int) -> dict:
     """{integrator: {"areas", "ratios", "measured", "closed_form", "worst_gap", "x", "v"}}: ratios are
@@ -127,6 +134,7 @@ def measure(dt: float, steps: int) -> dict:
                        "closed_form": float(closed[-1]), "worst_gap": float(np.max(gap)),
                        "x": x, "v": vx}
     return table
+
 
 def modified_energy_drift(x: np.ndarray, v: np.ndarray, dt: float) -> tuple[float, float]:
     """For semi-implicit Euler on the spring: (worst relative change of the true energy, of the
@@ -279,6 +287,7 @@ def main(argv=None) -> int:
         record(args.rrd, table)
         print(f"\nrecording: {args.rrd} (open it with: rerun {args.rrd}; drag the `step` timeline)")
     return 0
+
 
 if __name__ == "__main__":
     sys.exit(main())

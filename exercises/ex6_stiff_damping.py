@@ -54,6 +54,7 @@ def bounded_map() -> dict:
     return {name: stability_map.stays_bounded(name, w.ravel(), c.ravel(), steps=2000).reshape(w.shape)
             for name in NAMES}
 
+
 def print_map(grid: dict, here: tuple[int, int]) -> None:
     """Four small maps side by side: '#' bounded, '.' not; the question's spring, at (row, column) here, '@' or 'x'."""
     width = len(MAP_DAMPING)
@@ -67,6 +68,7 @@ def print_map(grid: dict, here: tuple[int, int]) -> None:
             cells.append("".join(marks) + "   ")
         print("".join(cells) + f"w = {w:g}")
     print(f"columns: c = dt b/m = {', '.join(f'{c:g}' for c in MAP_DAMPING)}")
+
 
 @one_line_failures("exercises.ex6_stiff_damping")  # Ctrl-C or a closed stdout (`| head`): one line, no traceback
 def main(argv=None) -> int:
@@ -121,6 +123,7 @@ def main(argv=None) -> int:
         " only because 2.5 is under 2.785; at b = 300 it blows up, warns and resets the simulation.",
     )
     return 0
+
 
 if __name__ == "__main__":
     sys.exit(main())
