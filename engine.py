@@ -58,12 +58,9 @@ DAMPED_SYSTEMS = {}  # dissipative systems, the closed-form solution is the refe
 
 
 def system(name: str, returns: bool = False, damped: bool = False):
-    """Declare the system that the decorated build(rng) returns, under `name`. This is its one entry.
-
-    returns: the motion comes back where it was (orbit, spring), so the energy error can average out
-    and the drift ordering is judged on it. damped: energy drains by design (the system also declares
-    dissipation(q, v) and dforce_dv), so the closed-form solution referees it instead.
-    """
+    """Declare the system the decorated build(rng) returns, under `name`: its one entry. returns: the motion
+    comes back (orbit, spring), so the energy error can average out and the drift ordering is judged on it.
+    damped: energy drains by design (it declares dissipation and dforce_dv); its closed form referees it."""
     def declare(build):
         build.returns = returns
         (DAMPED_SYSTEMS if damped else SYSTEMS)[name] = build
@@ -267,15 +264,18 @@ def kepler_period(q0, v0, mu: float = 1.0) -> float:
 INTEGRATORS = {}  # name -> step(q, v, m, force, dt), filled by @integrator
 
 
-def integrator(name: str, order: int, force_evaluations: int, chapter: bool = True, needs: str | None = None):
+def integrator(name: str, order: int, force_evaluations: int, chapter: bool = True, needs: str | None = None,
+               velocity_forces: bool = True):
     """Declare the decorated step under `name`. This is its one entry.
 
     chapter: one of the chapter's three, which the report's verdict and the exercises compare.
     needs: a fact the step reads from the system (implicit_step needs dforce_dv), so it is
-    offered only on systems that declare it.
+    offered only on systems that declare it. velocity_forces=False: the step keeps its order only
+    where the force ignores the velocity (velocity Verlet), so it is not offered where it does not.
     """
     def declare(step):
-        step.order, step.force_evaluations, step.chapter, step.needs = order, force_evaluations, chapter, needs
+        vars(step).update(order=order, force_evaluations=force_evaluations, chapter=chapter, needs=needs,
+                          velocity_forces=velocity_forces)
         INTEGRATORS[name] = step
         return step
 
@@ -361,6 +361,8 @@ def integrators_for(system: dict) -> dict:
     """{name: step(q, v, m, force, dt)} for every integrator that can run `system`."""
     steps = {}
     for name, step in INTEGRATORS.items():
+        if "dforce_dv" in system and not step.velocity_forces:
+            continue  # a velocity-dependent force, which this step's order does not cover
         if step.needs is None:
             steps[name] = step
         elif step.needs in system:
