@@ -1,8 +1,9 @@
-"""The damped rung's audit, for `python engine.py --system damped_spring`: each integrator against the
-closed-form solution, whether it stays bounded, and the energy the damper took out.
+"""The next rung, for `python engine.py --system damped_spring`: a spring with a damper, a step implicit in the
+damping as MuJoCo's Euler is, and the audit that referees them against the closed-form solution.
 
-A leaf: it imports engine, and engine.main() loads it only for a damped system. The physics (the
-damped spring, its exact motion, implicit_step) is in engine.py; docs/damping.md has the figures.
+engine.py registers `damped_spring` as a system and `implicit_step` as an integrator, each in one line, so
+they are offered like the chapter's own; it imports this module, and this module imports nothing of
+engine's. docs/damping.md has the figures; exercise 6 asks first.
 """
 
 import math
@@ -10,9 +11,57 @@ import math
 import numpy as np
 
 from curriculum.common.report import cell, sim_time
-from engine import dot3
+from engine_referee import damped_oscillator, distance, dot3
 
+DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (300 is the stiff case)
+MAX_DAMPING = 1e6  # N s/m: dt b/m = 10,000, the map's last column; from ~7e8 the recording's exact velocity overflows
 BOUNDED_SLACK = 1e-3  # a steady oscillation's sampled peaks differ by less than this between halves
+
+
+def damped_spring(rng, damping=DAMPING):
+    # The spring again, with a damper pulling against the velocity: force -k q - b v.
+    # Energy now drains away, so the referee is the closed-form solution instead, and the
+    # energy lost must match the damper's work, the time integral of b |v|^2.
+    k, m, b = 4.0, 1.0, float(damping)
+    q0 = np.array([1.0 + rng.uniform(-0.1, 0.1), 0.0, 0.0])
+    v0 = np.zeros(3)
+
+    def force(q, v):
+        return -k * q - b * v  # spring plus damper, added in MuJoCo's order
+
+    def energy(q, v):
+        return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)  # kinetic + spring: what the damper drains
+
+    def dissipation(q, v):
+        return b * dot3(v, v)  # the power the damper takes out, one number per body
+
+    def exact(q0, v0, t):  # the truth from any start, so a batch's rows each get their own
+        return damped_oscillator(q0, v0, k, m, b, t)
+
+    # What a velocity-dependent force declares for implicit_step: d force / d v, here -b
+    # times the identity (MuJoCo's qDeriv). Conservative systems have none.
+    return {"q0": q0, "v0": v0, "m": m, "force": force, "energy": energy, "exact": exact,
+            "dissipation": dissipation, "dforce_dv": -b, "k": k, "b": b}
+
+
+def implicit_step(q, v, m, force, dt, dforce_dv):
+    """Semi-implicit Euler with the velocity-dependent force taken at the NEW velocity.
+
+    Solves m (v_new - v) / dt = force(q, v) + dforce_dv (v_new - v) for v_new, then q += dt * v_new.
+    With a linear damper that is the force at (q_old, v_new): implicit in the damping, explicit
+    in the spring. It is MuJoCo's Euler on a joint with damping, and its implicitfast (M - h qDeriv).
+    Symplectic only where dforce_dv = 0; order 1; 1 force evaluation per step (and dforce_dv).
+    With dforce_dv = 0 it is semi_implicit_step, bit for bit where 1/m is exact (m = 1, 2, 0.5, ...);
+    for other masses the last bit can differ, as it multiplies by 1/m where that one divides by m.
+    What it buys under stiff damping: exercise 6 (predict first); docs/damping.md has the stability map.
+    """
+    # MuJoCo factorizes m - dt * qDeriv and multiplies by the inverse of its diagonal, so we do
+    # too and match it to the bit (its mjINT_IMPLICIT divides instead: last-bit differences).
+    inverse_mass = 1.0 / (m - dt * dforce_dv)
+    a = force(q, v) * inverse_mass
+    v_next = v + dt * a
+    q_next = q + dt * v_next  # the new velocity moves the position, as in semi_implicit_step
+    return q_next, v_next
 
 
 def against_exact(system: dict, positions, velocities, energies, kept, dt: float) -> dict:
@@ -28,8 +77,7 @@ def against_exact(system: dict, positions, velocities, energies, kept, dt: float
     if not np.isfinite(energies).all():  # the energy squares q and v: finite energy, finite everything
         return {"err_max": None, "err_final": None, "bounded": False, "energy_lost": None,
                 "damper_work": None, "work_mismatch": None}
-    gap = positions - system["exact"](system["q0"], system["v0"], kept * dt)
-    distance = np.sqrt(dot3(gap, gap))
+    miss = distance(positions, system["exact"](system["q0"], system["v0"], kept * dt))
     swing = np.sqrt(dot3(positions, positions))
     half = len(swing) // 2
     bounded = swing[half:].max() <= swing[:half + 1].max() * (1.0 + BOUNDED_SLACK)
@@ -37,7 +85,7 @@ def against_exact(system: dict, positions, velocities, energies, kept, dt: float
     uniform = len(kept) - 1 if (spacing == spacing[0]).all() else len(kept) - 2  # thinned: drop the short tail
     work = simpson(system["dissipation"](positions[: uniform + 1], velocities[: uniform + 1]), spacing[0] * dt)
     lost = float(energies[0] - energies[kept[uniform]])
-    return {"err_max": float(distance.max()), "err_final": float(distance[-1]), "bounded": bool(bounded),
+    return {"err_max": float(miss.max()), "err_final": float(miss[-1]), "bounded": bool(bounded),
             "energy_lost": lost, "damper_work": work, "work_mismatch": (lost - work) / float(energies[0])}
 
 

@@ -1,18 +1,20 @@
-"""Many seeds at once, for `python engine.py --ensemble N`: what is kept of each integrator, and the report.
+"""Many seeds at once, for `python engine.py --ensemble N`: build the batch, summarise it, report it.
 
 build_ensemble() stacks N starting states into (N, 3) arrays and engine.simulate() steps them
 together: the same arithmetic on every row, so each member is bit for bit its own single run, at a
-fraction of the cost per member. This module keeps what the report needs: every member's energy at
-every step, but positions only every few steps, and summarises them.
+fraction of the cost per member. summarize() keeps what the report and the recording need of each
+integrator's run: every member's drift, the first members' paths and the spread of their errors.
 
-A leaf: it imports engine, and engine.main() loads it only when --ensemble asks.
+Pure functions: engine.main() calls them in its --ensemble branch, and this module imports nothing
+of engine's (it is handed engine.build_system and engine.judge_ordering where it needs them).
 """
 
 import math
 
 import numpy as np
 
-import engine
+from curriculum.common.cli import int_in, progress_printer
+from engine_referee import relative_energy_error
 
 ENSEMBLE_MEMORY = 1_000_000_000  # bytes an --ensemble run may hold; larger requests are refused up front
 ENSEMBLE_KEPT_VALUES = 8_000_000  # position values kept per integrator in an ensemble (energies: all of them)
@@ -40,16 +42,23 @@ def ensemble_most_members(steps: int) -> int:
     return max(0, (ENSEMBLE_MEMORY - ensemble_bytes(steps, 0)) // (ENSEMBLE_MEMBER + 9 * (steps + 1)))
 
 
-def build_ensemble(name: str, seeds, progress=None) -> dict:
+def ensemble_size(text: str) -> int:
+    """--ensemble's type: a whole number of members, from 1 to as many as fit at one step."""
+    return int_in(1, ensemble_most_members(1), "--ensemble")(text)
+
+
+def build_ensemble(build, seeds) -> dict:
     """One system, N bodies stepped as a batch: q0 and v0 become (N, 3), one row per seed.
 
-    Row i starts exactly where engine.build_system(name, default_rng(seeds[i])) does: each seed gets its own
-    generator, as a single run does, but only its one jitter is drawn per seed. The rest, the force
-    and energy laws included, is built once: with the jitter 0 (the start) and 1 (what it moves).
-    progress(done), if given, is called as the members' draws are made.
+    build(rng) builds the system (engine.build_system with its name). Row i starts exactly where
+    build(default_rng(seeds[i])) does: each seed gets its own generator, as a single run does, but only
+    its one jitter is drawn per seed. The rest, the force and energy laws included, is built once: with
+    the jitter 0 (the start) and 1 (what it moves). From 100,000 members the draws show progress.
     """
     zero, one = OneDraw(0.0), OneDraw(1.0)
-    system, moved = engine.build_system(name, zero), engine.build_system(name, one)
+    system, moved = build(zero), build(one)
+    # one generator per seed takes ~15 us: past 100,000 members that is worth a progress line
+    progress = progress_printer("seeds", len(seeds), unit="members") if len(seeds) >= 100_000 else None
     jitter = np.empty(len(seeds))
     for first in range(0, len(seeds), 100_000):
         chunk = seeds[first:first + 100_000]
@@ -95,7 +104,7 @@ def ensemble_drift(energies: np.ndarray) -> dict:
     member's figures are the bits energy_drift() gives for that member alone."""
     # The worst excursion is above the highest energy or below the lowest: no (steps, N) temporaries, and
     # the same bits as max |E - E0| / |E0| because subtracting E0 and dividing by |E0| keep the order.
-    start, highest, lowest, final = engine.relative_energy_error(
+    start, highest, lowest, final = relative_energy_error(
         np.stack([energies[0], np.max(energies, axis=0), np.min(energies, axis=0), energies[-1]]))
     worst = np.maximum(highest, -lowest)
     diverged = ~np.isfinite(worst)  # a non-finite energy, or finite ones whose error overflows
@@ -111,10 +120,10 @@ def error_spread(energies: np.ndarray, kept: np.ndarray) -> np.ndarray:
     # highest and lowest energy between one kept step and the next, carried on: (len(kept), N) each
     starts = np.concatenate([[0], kept[:-1] + 1])
     highest = np.maximum.accumulate(np.maximum.reduceat(energies, starts, axis=0), axis=0)
-    worst = engine.relative_energy_error(highest, e0=energies[0])
+    worst = relative_energy_error(highest, e0=energies[0])
     del highest  # (len(kept), N) arrays: at most three at a time
     lowest = np.minimum.accumulate(np.minimum.reduceat(energies, starts, axis=0), axis=0)
-    np.maximum(worst, -engine.relative_energy_error(lowest, e0=energies[0]), out=worst)
+    np.maximum(worst, -relative_energy_error(lowest, e0=energies[0]), out=worst)
     worst[~np.isfinite(worst)] = np.inf  # a diverged member sorts last
     with np.errstate(all="ignore"):  # a median of two errors near the float limit overflows to inf (not drawn)
         return np.stack([worst.min(axis=1), np.median(worst, axis=1), worst.max(axis=1)], axis=1)
@@ -133,23 +142,26 @@ def spread(values: np.ndarray) -> dict | None:
     return {"min": float(finite[0]), "median": float(median), "max": float(finite[-1])}
 
 
-def summarize_ensemble(energies: np.ndarray, positions: np.ndarray, kept: np.ndarray, for_recording: bool) -> dict:
-    """What an ensemble run keeps of one integrator: each member's drift and, for the recording,
-    the first members' paths and the spread of all the members' error curves."""
+def summarize(run: tuple, kept: np.ndarray, for_recording: bool) -> tuple[dict, tuple]:
+    """What an ensemble run keeps of one integrator's run (positions, velocities, energies of every member):
+    each member's drift and, for the recording, the first members' paths and the spread of all the members'
+    error curves; and member 0's own run, which is the single run with --seed, bit for bit."""
+    positions, velocities, energies = run
     summary = ensemble_drift(energies)
     if for_recording:
         summary["paths"] = positions[:, :SHOWN_MEMBERS].copy()
         summary["error_spread"] = error_spread(energies, kept)
-    return summary
+    return summary, (positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy())
 
 
-def ensemble_block(system_name: str, seeds: range, ensemble: dict) -> dict:
-    """The `ensemble` block of metrics.json (rounded there like drift): each drift's spread, the ordering count."""
+def ensemble_block(seeds: range, ensemble: dict, judge=None) -> dict:
+    """The `ensemble` block of metrics.json (rounded there like drift): each drift's spread and, where the ordering
+    is judged (judge is engine.judge_ordering, one verdict per member as a single run gets), its counts."""
     block = {"seeds": [seeds[0], seeds[-1]], "members": len(seeds), "drift": {
         name: {"rel_final": spread(s["rel_final"]), "rel_max": spread(s["rel_max"]),
                "diverged": int(np.count_nonzero(s["diverged"]))} for name, s in ensemble.items()}}
-    if engine.ordering_is_judged(system_name, ensemble):
-        verdicts = engine.judge_ordering(ensemble)  # one verdict per member, as a single run gets
+    if judge:
+        verdicts = judge(ensemble)
         block["ordering_holds"] = int(np.count_nonzero(verdicts == "holds"))
         block["ordering_fails_for_seeds"] = [seeds[i] for i in np.flatnonzero(verdicts == "fails").tolist()]
         block["ordering_not_judged"] = int(np.count_nonzero(~np.isin(verdicts, ["holds", "fails"])))
@@ -164,9 +176,10 @@ SEED_CHANGES = {"orbit": "the orbit's starting speed, 1 +- 0.05 (5%), and with i
                 "freefall": "the body's launch speed, 3 +- 0.5 m/s"}
 
 
-def jittered(system_name: str) -> str:
-    """What a seed changes in a system SEED_CHANGES has no words for: the one number that differs between seeds."""
-    a, b = (engine.build_system(system_name, np.random.default_rng(seed)) for seed in (0, 1))
+def jittered(build) -> str:
+    """What a seed changes in a system SEED_CHANGES has no words for: the one number that differs between seeds.
+    build(rng) builds the system, as in build_ensemble."""
+    a, b = (build(np.random.default_rng(seed)) for seed in (0, 1))
     changed = [f"{key}'s {axis}" for key in ("q0", "v0") for axis, x, y in zip("xyz", a[key], b[key], strict=True)
                if x != y]
     return f"the start's {' and '.join(changed) or 'nothing'}"
@@ -186,10 +199,11 @@ def memory_over_limit(needed: float) -> str:
     return f"{shown} GB, over the {ENSEMBLE_MEMORY / 1e9:g} GB"
 
 
-def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
-    """The ensemble's table: per integrator, min/median/max over the members of both drifts."""
+def print_ensemble_report(system_name: str, seeds: range, block: dict, ordering: str, build) -> None:
+    """The ensemble's table: per integrator, min/median/max over the members of both drifts; then the
+    ordering's line (engine.ORDERING) with how many members it holds for. build(rng) builds the system."""
     print(f"\nensemble of seeds {seeds[0]}..{seeds[-1]}: {counted(len(seeds), 'member')} stepped together")
-    print(f"(a seed changes {SEED_CHANGES.get(system_name) or jittered(system_name)})")
+    print(f"(a seed changes {SEED_CHANGES.get(system_name) or jittered(build)})")
     if system_name == "spring":
         print("(the spring is linear: a seed only scales the amplitude, so every member's relative drift\n"
               " is the same up to round-off; the spread below is not a finding)")
@@ -200,7 +214,7 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
                  for x in (d["rel_final"], d["rel_max"])]  # '-': every member diverged
         print(f"{name:<14}{cells[0]}  {cells[1]}  {d['diverged']:>8,}")
     if "ordering_holds" in block:
-        head = f"{engine.ORDERING}:"
+        head = f"{ordering}:"
         if block["ordering_not_judged"] == len(seeds):
             print(f"{head} cannot judge {'the one seed' if len(seeds) == 1 else f'any of the {len(seeds):,} seeds'}")
         else:
@@ -219,36 +233,3 @@ def print_ensemble_report(system_name: str, seeds: range, block: dict) -> None:
             more = f" and {len(fails) - 10:,} more" if len(fails) > 10 else ""
             print(f"  it fails for {'seed' if len(fails) == 1 else 'seeds'} {', '.join(map(str, fails[:10]))}{more}:"
                   " rerun one with --seed to look")
-
-
-def main(args, steps: int, started: float) -> int:
-    """engine.main() for --ensemble: seeds --seed .. --seed+N-1 stepped together, reported, written.
-
-    Member 0 is the single run with --seed, bit for bit: its drifts fill metrics.json's "drift" and
-    the table above the ensemble's; the members' spread fills the "ensemble" block.
-    """
-    seeds = range(args.seed, args.seed + args.ensemble)  # PCG64 seeded per member is the only randomness
-    # one generator per seed takes ~15 us: past 100,000 members that is worth a progress line
-    building = engine.progress_printer("seeds", len(seeds), unit="members") if len(seeds) >= 100_000 else None
-    system = build_ensemble(args.system, seeds, building)
-    integrators = engine.integrators_for(system)
-    names = list(integrators) if args.integrator == "all" else [args.integrator]
-    every = max(math.ceil((steps + 1) / engine.MAX_POINTS_PER_SERIES), ensemble_every(steps, len(seeds)))
-    kept = engine.kept_steps(steps, every)
-    # a member's step in a batch costs about a hundredth of a single run's, hence the 100
-    show_progress = not args.smoke and steps * len(names) * len(seeds) >= engine.PROGRESS_FROM * 100
-    runs, drifts, ensemble = {}, {}, {}
-    for name in names:
-        progress = engine.progress_printer(name, steps) if show_progress else None
-        positions, velocities, energies = engine.simulate(integrators[name], system, args.dt, steps, every, progress)
-        ensemble[name] = summarize_ensemble(energies, positions, kept, args.rerun)
-        runs[name] = positions[:, 0].copy(), velocities[:, 0].copy(), energies[:, 0].copy()
-        drifts[name] = engine.drift_with_final_position(runs[name])
-        del positions, velocities, energies  # every member's run, freed before the next integrator's is made
-    block = ensemble_block(args.system, seeds, ensemble)
-    metrics = engine.build_metrics(args.system, args.dt, steps, args.seed, drifts, ensemble=block)
-    engine.write_outputs(args, system, runs, kept, metrics, ensemble)
-    engine.print_report(args.system, args.dt, steps, drifts)
-    print_ensemble_report(args.system, seeds, block)
-    engine.finish(args, runs, steps, started)
-    return 0

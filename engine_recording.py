@@ -1,20 +1,20 @@
 """All of Rerun for engine.py: the recording a run writes, and what the viewer opens on.
 
-engine.py imports this only when a recording is asked for, so the physics and the tests run without
-Rerun. Each system opens on its own lesson: RECORDED_VIEWS lists, per system, the views it needs, and
-each log_<view>() logs its data along the `step` timeline and returns that view's layout. A new system
-records its paths, its energy error and its position error where it has an exact motion (views_for)
-until it gets a line of its own in the table; a
-new view is one function. Colours, labels and the way the file opens are the course's
+engine.py imports this module, which imports nothing of engine's and loads Rerun only inside record(),
+when a recording is asked for: the physics and the tests run without Rerun. Each system opens on its
+own lesson: RECORDED_VIEWS lists, per system, the views it needs, and each log_<view>() logs its data
+along the `step` timeline and returns that view's layout. A new system records its paths, its energy
+error and its position error where it has an exact motion (views_for) until it gets a line of its own
+in the table; a new view is one function. Colours, labels and the way the file opens are the course's
 (curriculum/common/recording.py): an integrator the course has no colour for takes the next spare one
 from the colour-blind-safe palette, so a new name is never a KeyError. Comments say what the viewer shows.
 """
 
 import numpy as np
 
-import engine
 from curriculum.common import recording as course
 from engine_ensembles import SHOWN_MEMBERS
+from engine_referee import distance, relative_energy_error
 
 APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '_' and '-'
 EXACT_GREY = (120, 120, 120)  # the exact motion, drawn wide under the integrators' lines
@@ -148,11 +148,7 @@ def log10_of(x):
 def log_position_error(rr, rrb, recording, system, runs, kept, dt):
     """log10 |q - q_exact| in metres: RK4 sits orders of magnitude below semi-implicit Euler."""
     exact = system["exact"](*first_start(system), kept * dt)
-    curves = {}
-    for name, (positions, _, _) in runs.items():
-        miss = positions - exact
-        with np.errstate(all="ignore"):
-            curves[name] = log10_of(np.sqrt(np.square(miss).sum(axis=-1)))  # distance from the exact path
+    curves = {name: log10_of(distance(positions, exact)) for name, (positions, _, _) in runs.items()}
     logged = log_curves(rr, recording, "position_error", curves, kept)
     # log10 = 0: off by 1 m, the size of the orbit (or of the spring's swing) itself. "zero" sorts last.
     log_level(rr, recording, "position_error/zero", "1 m, the size of the motion", 0.0, kept)
@@ -164,7 +160,7 @@ def log_energy_error(rr, rrb, recording, system, runs, kept, dt):
     """log10 |E - E0| / |E0|, digits of energy lost: Euler climbs to 0 (100%), semi-implicit stays in a band."""
     curves = {}
     for name, (_, _, energies) in runs.items():
-        curves[name] = log10_of(np.abs(engine.relative_energy_error(energies[kept])))
+        curves[name] = log10_of(np.abs(relative_energy_error(energies[kept])))
     logged = log_curves(rr, recording, "energy_error", curves, kept)
     log_level(rr, recording, "energy_error/zero", "100% of E0", 0.0, kept)  # log10 = 0: all of it
     return course.time_series("energy_error", "energy error: log10 |E - E0| / |E0|", kept[-1], [logged, [0.0]])
@@ -175,7 +171,7 @@ def log_energy_change(rr, rrb, recording, system, runs, kept, dt):
     curves = {}
     for name, (_, _, energies) in runs.items():
         with np.errstate(all="ignore"):
-            curves[name] = engine.relative_energy_error(energies[kept]) * 100.0
+            curves[name] = relative_energy_error(energies[kept]) * 100.0
     logged = log_curves(rr, recording, "energy_change", curves, kept)
     reach = 1.15 * float(np.abs(logged).max(initial=0.0)) or 1.0
     return course.time_series("energy_change", "energy change (E - E0) / |E0|, %", kept[-1], legend="LeftTop",

@@ -17,6 +17,7 @@ from curriculum.common.exercise import start
 start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
 
 import argparse
+import functools
 
 import numpy as np
 
@@ -25,6 +26,7 @@ import engine_ensembles
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import PerName, ask, explain, verdict
+from engine_referee import relative_energy_error
 
 NAMES = list(engine.CHAPTER_INTEGRATORS)  # the chapter's three
 WORDS = ["grows", "stays"]  # grows with the run, or stays in a band
@@ -43,7 +45,7 @@ def measure(seed: int = 0) -> dict:
     table = {}
     for name in NAMES:
         _, _, energies = engine.simulate(engine.INTEGRATORS[name], system, DT, CHAPTER_STEPS * HORIZONS[-1])
-        error = engine.relative_energy_error(energies)
+        error = relative_energy_error(energies)
         table[name] = [(float(error[: CHAPTER_STEPS * h + 1].min()), float(error[: CHAPTER_STEPS * h + 1].max()))
                        for h in HORIZONS]
     return table
@@ -62,8 +64,8 @@ def answer(rows: list) -> str:
 def rk4_above_e0(seeds=SEEDS) -> tuple[int, int]:
     """Over many seeds (one batch), the chapter's run under RK4: (members whose energy is above E0 at some step,
     members that end below E0)."""
-    batch = engine_ensembles.build_ensemble("orbit", seeds)
-    _, _, energies = engine.simulate(engine.rk4_step, batch, DT, CHAPTER_STEPS, every=CHAPTER_STEPS)
+    batch = engine_ensembles.build_ensemble(functools.partial(engine.build_system, "orbit"), seeds)
+    _, _, energies = engine.simulate_long(engine.rk4_step, batch, DT, CHAPTER_STEPS, every=CHAPTER_STEPS)
     error = energies - energies[0]
     return int(np.count_nonzero((error > 0).any(axis=0))), int(np.count_nonzero(error[-1] < 0))
 

@@ -25,6 +25,7 @@ import engine
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import Number, ask, explain, verdict
+from engine_referee import kepler_period, relative_energy_error
 
 # Coarse on purpose, so the crossovers come within tens of thousands of steps. The last member
 # is the chapter's dt: it rides along in the same batch, for the direct estimate at dt 0.01.
@@ -47,7 +48,7 @@ def semi_implicit_bands(system: dict, dts: list, period: float) -> np.ndarray:
     steps = math.ceil(3 * period / min(dts))
     _, _, energies = engine.simulate(engine.semi_implicit_step, batch(system, len(dts)),
                                      np.array(dts)[:, None], steps)
-    return np.abs(energies - energies[0]).max(axis=0) / np.abs(energies[0])
+    return np.abs(relative_energy_error(energies)).max(axis=0)
 
 
 def rk4_crossovers(system: dict, dts: list, bands: np.ndarray, progress=None) -> tuple[np.ndarray, np.ndarray]:
@@ -60,10 +61,9 @@ def rk4_crossovers(system: dict, dts: list, bands: np.ndarray, progress=None) ->
     chapter_history = []
     done = 0
     while (crossed[:-1] < 0).any() and done < MAX_STEPS:
-        positions, velocities, energies = engine.simulate(engine.rk4_step, state, np.array(dts)[:, None], CHUNK,
-                                                          every=CHUNK)
+        positions, velocities, energies = engine.simulate(engine.rk4_step, state, np.array(dts)[:, None], CHUNK)
         e0 = energies[0] if e0 is None else e0
-        error = np.abs(energies - e0) / np.abs(e0)
+        error = np.abs(relative_energy_error(energies, e0))
         for i in np.flatnonzero(crossed < 0):
             over = np.flatnonzero(error[1:, i] > bands[i])
             if over.size:
@@ -92,7 +92,7 @@ def main(argv=None) -> int:
                 Number(CHOICES, unit="orbit"), argv)
 
     system = engine.build_system("orbit", np.random.default_rng(0))
-    period = engine.kepler_period(system["q0"], system["v0"], system["mu"])
+    period = kepler_period(system["q0"], system["v0"], system["mu"])
     dts = [*TIMESTEPS, CHAPTER_DT]
     bands = semi_implicit_bands(system, dts, period)
     progress = show_progress if sys.stderr.isatty() else None  # redrawn in place: for a terminal, not a log

@@ -21,3 +21,23 @@ def run_engine(*args, cwd=None, env=None, timeout=120):
     """`python engine.py ARGS` in a fresh interpreter; returns the CompletedProcess."""
     return subprocess.run([sys.executable, str(ENGINE), *map(str, args)], cwd=cwd or REPO, env=env,
                           capture_output=True, text=True, timeout=timeout)
+
+
+def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0, every: int = 1):
+    """One run as main() makes it (simulate_long, every k-th state kept): (positions, velocities, energies)."""
+    import numpy as np
+
+    import engine
+
+    system = engine.build_system(system_name, np.random.default_rng(seed))
+    return engine.simulate_long(engine.integrators_for(system)[integrator], system, dt, steps, every)
+
+
+def ensemble_of(system_name: str, seeds) -> dict:
+    """engine_ensembles.build_ensemble for the system called `system_name`."""
+    import functools
+
+    import engine
+    import engine_ensembles
+
+    return engine_ensembles.build_ensemble(functools.partial(engine.build_system, system_name), seeds)

@@ -17,6 +17,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
 import engine  # noqa: E402
+from conftest import run
 
 BODY = '<inertial pos="0 0 0" mass="{m}" diaginertia="1 1 1"/>'
 SLIDES = "".join(f'<joint name="{axis}" type="slide" axis="{vec}" {{extra}}/>'
@@ -162,7 +163,7 @@ if __name__ == "__main__":
     for name in ("spring", "freefall", "orbit"):
         system = engine.build_system(name, np.random.default_rng(0))
         for theirs, ours in (("Euler", "semi_implicit"), ("RK4", "rk4")):
-            mine, _, _ = engine.run(name, ours)
+            mine, _, _ = run(name, ours)
             gap = np.abs(mine - mujoco_trajectory(name, theirs)).max()
             print(f"{name:<9} mujoco {theirs:<6} vs {ours:<14} max |q_ours - q_mujoco| = {gap:.3g} over 2000 steps")
     print_damped_parity()

@@ -10,7 +10,7 @@ import pytest
 
 import engine
 import engine_ensembles as ensembles
-from conftest import REPO, run_engine
+from conftest import REPO, ensemble_of, run_engine
 
 SEEDS = [0, 1, 2, 7, 123, 40_000]
 SIMD_OFF = {"NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR X86_V3"}  # as test_engine's determinism test
@@ -20,11 +20,11 @@ MEMBERS_VS_SINGLES = """
 import hashlib, numpy as np, engine, engine_ensembles as ensembles
 seeds, digest = {seeds}, hashlib.sha256()
 for system_name in engine.SYSTEMS:
-    ensemble = ensembles.build_ensemble(system_name, seeds)
+    ensemble = ensemble_of(system_name, seeds)
     for name, step in engine.integrators_for(ensemble).items():
         batch = engine.simulate(step, ensemble, 0.01, 400)
         for i, seed in enumerate(seeds):
-            single = engine.run(system_name, name, 0.01, 400, seed)
+            single = run(system_name, name, 0.01, 400, seed)
             for mine, theirs in zip(batch, single):
                 member = mine[:, i]
                 assert member.tobytes() == theirs.tobytes(), (system_name, name, seed)
@@ -52,7 +52,7 @@ def test_every_member_is_its_single_run_bit_for_bit_at_every_simd_level():
 
 def test_ensemble_starts_are_the_single_runs_starts():
     for system_name in engine.SYSTEMS:
-        ensemble = ensembles.build_ensemble(system_name, SEEDS)
+        ensemble = ensemble_of(system_name, SEEDS)
         for i, seed in enumerate(SEEDS):
             single = engine.build_system(system_name, np.random.default_rng(seed))
             assert np.array_equal(ensemble["q0"][i], single["q0"]) and np.array_equal(ensemble["v0"][i], single["v0"])
@@ -60,7 +60,7 @@ def test_ensemble_starts_are_the_single_runs_starts():
 
 @pytest.mark.parametrize("dt", [0.01, 1.5])  # 1.5 s: every spring member diverges
 def test_ensemble_drift_is_energy_drift_member_by_member(dt):
-    ensemble = ensembles.build_ensemble("spring", SEEDS)
+    ensemble = ensemble_of("spring", SEEDS)
     _, _, energies = engine.simulate(engine.euler_step, ensemble, dt, 500)
     drift = ensembles.ensemble_drift(energies)
     for i in range(len(SEEDS)):
@@ -74,7 +74,7 @@ def test_ensemble_drift_is_energy_drift_member_by_member(dt):
 
 def test_orbit_members_really_differ_and_the_spring_only_scales():
     orbit, spring = (ensembles.ensemble_drift(engine.simulate(engine.semi_implicit_step,
-                                                               ensembles.build_ensemble(name, SEEDS), 0.01, 2000)[2])
+                                                               ensemble_of(name, SEEDS), 0.01, 2000)[2])
                      for name in ("orbit", "spring"))
     assert np.ptp(orbit["rel_max"]) > 0.1 * np.median(orbit["rel_max"])  # the seed changes the physics
     # linear: the seed scales the amplitude only (measured spread 1.9e-12 of the median over 1,000 seeds)
@@ -87,7 +87,7 @@ def test_ordering_count_names_the_seeds_where_it_fails():
     semi = {"rel_final": np.zeros(3), "rel_max": np.array([1e-4, 0.5, 1e-4]), "diverged": np.zeros(3, bool)}
     rk4 = {"rel_final": np.zeros(3), "rel_max": np.array([1e-11, 1e-11, np.nan]), "diverged": np.zeros(3, bool)}
     drifts = {"euler": {**ok, "diverged": np.zeros(3, bool)}, "semi_implicit": semi, "rk4": rk4}
-    block = ensembles.ensemble_block("orbit", range(10, 13), drifts)
+    block = ensembles.ensemble_block(range(10, 13), drifts, engine.judge_ordering)
     assert block["ordering_holds"] == 1 and block["ordering_fails_for_seeds"] == [11, 12]
     assert block["ordering_not_judged"] == 0
 

@@ -9,13 +9,14 @@ import pytest
 mujoco = pytest.importorskip("mujoco", reason="MuJoCo parity needs the 'mujoco' extra: pip install -e '.[mujoco]'")
 
 import engine  # noqa: E402
+from conftest import run  # noqa: E402
 from mujoco_models import mujoco_trajectory  # noqa: E402
 
 SYSTEMS = list(engine.SYSTEMS)  # spring and freefall natively, the others through our force law
 
 
 def ours(system_name, integrator, dt=0.01, steps=2000):
-    positions, _, _ = engine.run(system_name, integrator, dt, steps)
+    positions, _, _ = run(system_name, integrator, dt, steps)
     return positions
 
 

@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("mujoco", reason="rollout parity needs the 'mujoco' extra: pip install -e '.[mujoco]'")
 
 import engine  # noqa: E402
-import engine_ensembles  # noqa: E402
+from conftest import ensemble_of
 from mujoco_rollout import rollout_positions  # noqa: E402
 
 SEEDS = np.arange(40)  # 40 distinct members x 2000 steps: every one compared, a few seconds
@@ -17,7 +17,7 @@ STEPS = 2000
 
 
 def both(system_name, integrator):
-    system = engine_ensembles.build_ensemble(system_name, SEEDS)
+    system = ensemble_of(system_name, SEEDS)
     positions, velocities, _ = engine.simulate(engine.INTEGRATORS[integrator], system, 0.01, STEPS)
     theirs = rollout_positions(system_name, integrator, system["q0"], system["v0"], 0.01, STEPS)
     return (positions, velocities), theirs
@@ -46,6 +46,6 @@ def test_rk4_ensemble_matches_rollouts_rk4_to_round_off(system_name):
 def test_rollout_is_not_explicit_euler():
     """The bit-for-bit match above is specific: explicit Euler parts ways with mjINT_EULER at once."""
     (_, _), (their_positions, _) = both("spring", "semi_implicit")
-    system = engine_ensembles.build_ensemble("spring", SEEDS)
+    system = ensemble_of("spring", SEEDS)
     explicit, _, _ = engine.simulate(engine.euler_step, system, 0.01, STEPS)
     assert np.max(np.abs(explicit - their_positions)) > 1e-3

@@ -14,6 +14,7 @@ per member-step, which does not depend on how many members are timed (every memb
 """
 
 import argparse
+import functools
 import sys
 from pathlib import Path
 
@@ -33,17 +34,18 @@ SIZES = [1, 10, 100, 1_000, 10_000, 100_000]
 
 def ensemble_ns(system_name, integrator, members, steps, repeats=3):
     """ns per member-step of simulate() on an ensemble, energy every step as the engine does it."""
-    system = engine_ensembles.build_ensemble(system_name, range(members))
+    system = engine_ensembles.build_ensemble(functools.partial(engine.build_system, system_name), range(members))
     # keep only the first and last states, as --ensemble keeps few: what is timed is the stepping
-    seconds = best_seconds(lambda: engine.simulate(engine.INTEGRATORS[integrator], system, DT, steps, every=steps),
+    seconds = best_seconds(lambda: engine.simulate_long(engine.INTEGRATORS[integrator], system, DT, steps, every=steps),
                            repeats)
     return seconds / (members * steps) * 1e9
 
 
 def singles_ns(system_name, integrator, members, steps):
-    """ns per member-step of the same members run one at a time (engine.run, the single-run path)."""
-    seconds = best_seconds(lambda: [engine.run(system_name, integrator, DT, steps, seed) for seed in range(members)],
-                           repeats=1)
+    """ns per member-step of the same members run one at a time (build_system and simulate_long, as main() does)."""
+    step = engine.INTEGRATORS[integrator]
+    singles = [engine.build_system(system_name, np.random.default_rng(seed)) for seed in range(members)]
+    seconds = best_seconds(lambda: [engine.simulate_long(step, system, DT, steps) for system in singles], repeats=1)
     return seconds / (members * steps) * 1e9
 
 
@@ -53,7 +55,7 @@ def rollout_ns(system_name, members, steps):
 
     from mujoco_rollout import initial_states, rollout_model
 
-    system = engine_ensembles.build_ensemble(system_name, range(members))
+    system = engine_ensembles.build_ensemble(functools.partial(engine.build_system, system_name), range(members))
     model, data, _ = rollout_model(system_name, "semi_implicit", DT)
     start = initial_states(model, data, system["q0"], system["v0"])
     out = np.empty((members, steps, start.shape[1]))

@@ -30,7 +30,7 @@ def simulated(system_name, steps, dt=0.01):
     system = engine.build_system(system_name, np.random.default_rng(0))
     every = math.ceil((steps + 1) / engine.MAX_POINTS_PER_SERIES)  # as main() thins them
     steps_of = engine.integrators_for(system)
-    runs = {name: engine.simulate(step, system, dt, steps, every) for name, step in steps_of.items()}
+    runs = {name: engine.simulate_long(step, system, dt, steps, every) for name, step in steps_of.items()}
     return system, runs, engine.kept_steps(steps, every), dt
 
 

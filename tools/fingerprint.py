@@ -11,6 +11,8 @@ import hashlib
 import sys
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import engine  # noqa: E402
 
@@ -19,7 +21,8 @@ def fingerprint() -> str:
     digest = hashlib.sha256()
     for system_name in ("orbit", "spring", "freefall"):
         for integrator in engine.CHAPTER_INTEGRATORS:
-            positions, velocities, energies = engine.run(system_name, integrator)
+            system = engine.build_system(system_name, np.random.default_rng(0))
+            positions, velocities, energies = engine.simulate(engine.INTEGRATORS[integrator], system, 0.01, 2000)
             digest.update(positions.tobytes())
             digest.update(velocities.tobytes())
             digest.update(energies.tobytes())

@@ -8,6 +8,7 @@ With one MjData the rollout runs on the calling thread: one thread, as the bench
     python tools/mujoco_rollout.py     # the parity figures docs/ensembles.md quotes
 """
 
+import functools
 import sys
 from pathlib import Path
 
@@ -60,7 +61,7 @@ def rollout_positions(system_name: str, integrator: str, q0, v0, dt: float, step
 if __name__ == "__main__":
     seeds = np.arange(1000)
     for name in ("spring", "freefall"):
-        system = engine_ensembles.build_ensemble(name, seeds)
+        system = engine_ensembles.build_ensemble(functools.partial(engine.build_system, name), seeds)
         for ours in ("semi_implicit", "rk4"):
             mine, mine_v, _ = engine.simulate(engine.INTEGRATORS[ours], system, 0.01, 2000)
             theirs, theirs_v = rollout_positions(name, ours, system["q0"], system["v0"], 0.01, 2000)

@@ -1,11 +1,13 @@
 """What a chapter's run reports: metrics.json, whose bytes the course's CI diffs (the same run gives the same
-bytes), and the cells of the table it prints.
+bytes), the cells of the table it prints, and where its files went.
 
-    from curriculum.common.report import rounded, metrics_text, cell, sim_time
+    from curriculum.common.report import rounded, metrics_text, cell, sim_time, write_outputs, where_written
 """
 
 import json
 import math
+
+from curriculum.common.outputs import content_id, write_run
 
 
 def rounded(value):
@@ -38,3 +40,32 @@ def cell(value: float, width: int, signed: bool = False) -> str:
 def sim_time(seconds: float) -> str:
     """Simulated seconds as the reports print them: 20.00, or 1e-08 and 1e+12 where two decimals do not fit."""
     return f"{seconds:.2f}" if 0.01 <= seconds < 1e9 else f"{seconds:.3g}"
+
+
+def write_outputs(out, metrics: dict, metrics_file: str, recording=None) -> str | None:
+    """Write a run's metrics.json, and its recording if one is asked for, together (curriculum.common.outputs).
+
+    metrics gets its "run_id": content_id of the file written without it, so the same run gets the same id.
+    recording: None, or (file name, record) where record(run_id) returns (the .rrd's bytes, a note or None);
+    the recording carries the same run_id as its recording id. Returns the recording's note.
+    """
+    metrics["run_id"] = content_id(metrics_text(metrics))
+    files, note = {}, None
+    if recording:
+        recording_file, record = recording
+        files[recording_file], note = record(run_id=metrics["run_id"])
+    files[metrics_file] = metrics_text(metrics)
+    write_run(out, files)  # all on disk before any replaces its old file; metrics.json last
+    return note
+
+
+def where_written(out, metrics_file: str, recording_file: str, recorded: bool, note: str | None) -> None:
+    """The lines after a run's report: where its files are, and how to open the recording."""
+    metrics_path, recording_path = out / metrics_file, out / recording_file
+    print(f"metrics: {metrics_path}")
+    if recorded:
+        print(f"recording: {recording_path} (open it with: rerun {recording_path})")
+        if note:
+            print(note)
+    elif recording_path.exists():
+        print(f"note: {recording_path} is from an earlier run (this one wrote no recording)")

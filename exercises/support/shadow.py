@@ -11,6 +11,7 @@ the exercise, and not in engine.py: the chapter measures E, the referee; E~ is e
 import numpy as np
 
 import engine
+from engine_referee import dot3, relative_energy_error
 
 SEED, DT, STEPS = 0, 0.01, 2000  # the chapter's run: 20 s of simulated time
 SYSTEMS = ("spring", "orbit", "freefall")  # the spring first: exercise 5's quadratic is where E~ starts
@@ -23,12 +24,12 @@ def shadow_energy(system: dict, q, v, dt: float):
 
     The force is the system's own force law, so F = -grad V for every conservative system in the engine.
     """
-    return system["energy"](q, v) + 0.5 * dt * engine.dot3(v, system["force"](q, v))
+    return system["energy"](q, v) + 0.5 * dt * dot3(v, system["force"](q, v))
 
 
 def relative_change(values) -> np.ndarray:
     """|x - x0| / |x0| at every step: how far a quantity has moved from where it started."""
-    return np.abs(engine.relative_energy_error(np.asarray(values, dtype=float)))
+    return np.abs(relative_energy_error(np.asarray(values, dtype=float)))
 
 
 def band(values) -> float:
@@ -49,9 +50,9 @@ def roundoff_floor(system: dict, q, v, dt: float, shadow) -> float:
     and a potential energy that each reach about 19,000 J two kilometres down, and each rounds at
     that size.
     """
-    kinetic = 0.5 * system["m"] * engine.dot3(v, v)
+    kinetic = 0.5 * system["m"] * dot3(v, v)
     potential = system["energy"](q, v) - kinetic
-    correction = 0.5 * dt * engine.dot3(v, system["force"](q, v))
+    correction = 0.5 * dt * dot3(v, system["force"](q, v))
     terms = np.max(np.abs(kinetic) + np.abs(potential) + np.abs(correction))
     steps = len(shadow) - 1
     return float(ROUNDOFF_ULPS_PER_STEP * (steps + 1) * np.finfo(float).eps * terms / abs(shadow[0]))
@@ -99,7 +100,7 @@ def spring_of(k: float, m: float) -> dict:
         return -k * q
 
     def energy(q, v):
-        return 0.5 * m * engine.dot3(v, v) + 0.5 * k * engine.dot3(q, q)
+        return 0.5 * m * dot3(v, v) + 0.5 * k * dot3(q, q)
 
     return {"name": f"spring (k {k:g}, m {m:g})", "q0": chapter["q0"], "v0": chapter["v0"], "m": m,
             "force": force, "energy": energy}
