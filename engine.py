@@ -53,6 +53,8 @@ METRICS_FILE, RECORDING_FILE = "metrics.json", "engine.rrd"
 # --- systems ---
 # A system is the physics: where the body starts (q0, v0), its mass m, the force law
 # force(q, v), and the true total energy(q, v), which a perfect integrator holds constant.
+# @system declares one with the facts the run and the tests read (engine_registry.py); the
+# seed jitters one number of the start, so --seed matters and the drift ordering does not.
 #
 # The batch contract, which simulate() checks: q and v are one body's position and velocity,
 # shape (3,), or N independent bodies stepped together, (N, 3). force(q, v) returns q's shape;
@@ -130,7 +132,8 @@ def freefall(rng):
 
 # --- integrators ---
 # Each takes the state (q, v) and returns it one timestep dt later. They differ only in where
-# they look at the velocity and the force, and that is the whole lesson.
+# they look at the velocity and the force, and that is the whole lesson. @integrator declares
+# each with its passport: its order, and its force evaluations per step.
 
 @integrator("euler", order=1, force_evaluations=1)
 def euler_step(q, v, m, force, dt):
@@ -246,8 +249,8 @@ def judge_ordering(drifts: dict):
 
 def ordering_is_judged(system_name: str, integrators) -> bool:
     """The ordering is a claim about the chapter's three on a motion that comes back (orbit, spring)."""
-    build = SYSTEMS.get(system_name)
-    return build is not None and build.facts["returns"] and set(CHAPTER_INTEGRATORS) <= set(integrators)
+    returns = system_name in SYSTEMS and SYSTEMS[system_name].facts["returns"]
+    return returns and set(CHAPTER_INTEGRATORS) <= set(integrators)
 
 
 # --- report ---
@@ -282,8 +285,7 @@ def verdict_line(drifts: dict) -> str:
     return "as expected" if verdict == "holds" else "UNEXPECTED: investigate"
 
 
-def build_metrics(system_name: str, dt: float, steps: int, seed: int, drifts: dict, damping=None, solution=None,
-                  ensemble=None) -> dict:
+def build_metrics(system_name, dt, steps, seed, drifts, damping=None, solution=None, ensemble=None) -> dict:
     """The metrics.json payload: no wall-clock, nothing machine-dependent. A damped system adds its damping and
     "solution" (each integrator against the closed form); an --ensemble run adds its "ensemble" block."""
     metrics = {"system": system_name, "dt": dt, "steps": steps, "seed": seed, "drift": rounded(drifts)}
@@ -425,8 +427,8 @@ def main(argv=None) -> int:
     if args.ensemble:  # the spread of the members' drifts, and for how many of them the ordering holds
         block = ensembles.ensemble_block(seeds, ensemble, ordering_is_judged(args.system, ensemble) and judge_ordering)
     metrics = build_metrics(args.system, args.dt, steps, args.seed, drifts, system.get("b"), solution, block)
-    record = args.rerun and functools.partial(engine_recording.record, system, runs, kept, args.dt, ensemble=ensemble)
-    note = write_outputs(args.out, metrics, METRICS_FILE, record and (RECORDING_FILE, record))
+    record = functools.partial(engine_recording.record, system, runs, kept, args.dt, ensemble=ensemble)
+    note = write_outputs(args.out, metrics, METRICS_FILE, (RECORDING_FILE, record) if args.rerun else None)
     if solution:
         engine_damping.print_damped_report(system, args.dt, steps, drifts, solution)
     else:

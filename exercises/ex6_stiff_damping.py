@@ -5,7 +5,7 @@
 
 The chapter's spring (k = 4 N/m, m = 1 kg, stretched about 1 m) gets a damper: a force -b v against
 the velocity. Four integrators run it: the chapter's three, and `implicit`, the engine's fourth step,
-which takes the damping force at the new velocity instead of the old one (engine.implicit_step).
+which takes the damping force at the new velocity instead of the old one (implicit_step, in engine_damping.py).
 The run measures which stay bounded, draws where each one does across dampings and stiffnesses,
 and points at the line of MuJoCo's source that decides it for mj_step.
 """

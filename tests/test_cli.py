@@ -43,7 +43,7 @@ BAD_INPUT = {
     "zero steps": (["--steps", "0"], "--steps"),
     "too many steps": (["--steps", "10000001"], "--steps"),
     "negative seed": (["--seed", "-1"], "--seed"),
-    "unknown system": (["--system", "pendulum"], "--system"),
+    "unknown system": (["--system", "no_such_system"], "--system"),
     "smoke with its own step count": (["--smoke", "--steps", "50"], "--steps"),
     # numbers the flags read, past what Python turns into an int from text (4,300 digits) or a float holds
     "seed 1e4300": (["--seed", "1e4300"], "--seed must be from 0 to 18,446,744,073,709,551,615, got 1e4300"),

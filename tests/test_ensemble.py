@@ -17,14 +17,15 @@ SIMD_OFF = {"NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR X86_V3"}  
 
 # Run in a child process so numpy starts with the SIMD level under test; prints one hash of the batches.
 MEMBERS_VS_SINGLES = """
-import hashlib, numpy as np, engine, engine_ensembles as ensembles
+import functools, hashlib, numpy as np, engine, engine_ensembles as ensembles
 seeds, digest = {seeds}, hashlib.sha256()
 for system_name in engine.SYSTEMS:
-    ensemble = ensemble_of(system_name, seeds)
+    ensemble = ensembles.build_ensemble(functools.partial(engine.build_system, system_name), seeds)
     for name, step in engine.integrators_for(ensemble).items():
         batch = engine.simulate(step, ensemble, 0.01, 400)
         for i, seed in enumerate(seeds):
-            single = run(system_name, name, 0.01, 400, seed)
+            alone = engine.build_system(system_name, np.random.default_rng(seed))
+            single = engine.simulate(engine.integrators_for(alone)[name], alone, 0.01, 400)
             for mine, theirs in zip(batch, single):
                 member = mine[:, i]
                 assert member.tobytes() == theirs.tobytes(), (system_name, name, seed)

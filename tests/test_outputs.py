@@ -24,6 +24,7 @@ import pytest
 
 import engine as chapter
 from conftest import REPO
+from conftest import run as run_alone
 from curriculum.common import outputs
 from curriculum.common.outputs import OutputError, content_id, folder_problem, read_run, write_run
 
@@ -747,7 +748,7 @@ def engine_drift_of_each_seed(members: int) -> dict:
     """{integrator: [diverged per seed]} from energy_drift() of single runs: what the ensemble must agree with."""
     import engine as chapter
 
-    return {name: [chapter.energy_drift(chapter.run("orbit", name, dt=1.33e154, steps=1, seed=seed)[2])["diverged"]
+    return {name: [chapter.energy_drift(run_alone("orbit", name, dt=1.33e154, steps=1, seed=seed)[2])["diverged"]
                    for seed in range(members)]
             for name in chapter.integrators_for(chapter.build_system("orbit", chapter.np.random.default_rng(0)))}
 

@@ -72,6 +72,7 @@ def simulate(step_fn, system, dt, steps):
 def main(argv=None):
     parser = argparse.ArgumentParser()
     parser.add_argument("--system", default="orbit")
+    parser.add_argument("--integrator", choices=["all", *INTEGRATORS], default="all")
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--smoke", action="store_true")
     parser.add_argument("--no-rerun", dest="rerun", action="store_false")
@@ -85,6 +86,8 @@ def main(argv=None):
         rr.save(str(args.out / "baseline.rrd"))
     drift = {}
     for name, step_fn in INTEGRATORS.items():
+        if args.integrator not in ("all", name):
+            continue
         trajectory, energies = simulate(step_fn, system, 0.01, steps)
         e0 = energies[0]
         drift[name] = {"rel_final": float((energies[-1] - e0) / abs(e0)),

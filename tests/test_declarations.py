@@ -1,0 +1,183 @@
+"""What each system and integrator declares is measured, and the modules import one way.
+
+A system's facts (returns, potential, velocity_free, damped, dforce_dv) and an integrator's passport
+(order, force evaluations per step, needs) decide where a step is offered and what the run and the tests
+do with it, so each is checked against what the code does. The order is measured in test_closed_form.py
+and test_damping.py; everything else here. A test that needs something a system does not have skips it
+and says why.
+"""
+
+import ast
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import engine
+import engine_registry
+from conftest import REPO
+
+SYSTEMS = list(engine.SYSTEMS)
+PAIRS = [(system, name) for system in SYSTEMS
+         for name in engine.integrators_for(engine.build_system(system, np.random.default_rng(0)))]
+
+
+def built(system_name: str) -> dict:
+    return engine.build_system(system_name, np.random.default_rng(0))
+
+
+def nearby_states(system: dict, count: int = 5):
+    """States near the start: positions and velocities moved by up to 0.2 in each component."""
+    rng = np.random.default_rng(1)
+    for _ in range(count):
+        yield system["q0"] + rng.uniform(-0.2, 0.2, 3), system["v0"] + rng.uniform(-0.2, 0.2, 3)
+
+
+@pytest.mark.parametrize("system_name, integrator", PAIRS)
+def test_each_step_asks_for_the_force_as_often_as_its_passport_says(system_name, integrator):
+    system = built(system_name)
+    calls = []
+
+    def counted(q, v):
+        calls.append(1)
+        return system["force"](q, v)
+
+    step = engine.integrators_for(system)[integrator]
+    step(system["q0"], system["v0"], system["m"], counted, 0.01)
+    assert len(calls) == engine.INTEGRATORS[integrator].force_evaluations, (
+        f"{integrator} declares {engine.INTEGRATORS[integrator].force_evaluations} force evaluations per step"
+        f" and made {len(calls)} on {system_name}")
+
+
+@pytest.mark.parametrize("system_name", SYSTEMS)
+def test_a_velocity_free_force_ignores_the_velocity_and_the_others_do_not(system_name):
+    system = built(system_name)
+    for q, v in nearby_states(system):
+        same = np.array_equal(system["force"](q, v), system["force"](q, v + 0.5))
+        assert same == system["velocity_free"], (
+            f"{system_name} declares velocity_free={system['velocity_free']}, but its force"
+            f" {'does not depend' if same else 'depends'} on the velocity")
+
+
+@pytest.mark.parametrize("system_name", SYSTEMS)
+def test_a_declared_dforce_dv_is_the_forces_derivative(system_name):
+    system = built(system_name)
+    if system.get("dforce_dv") is None:
+        pytest.skip(f"{system_name} declares no dforce_dv")
+    h = 1e-6
+    for q, v in nearby_states(system):
+        for axis in np.eye(3):
+            derivative = (system["force"](q, v + h * axis) - system["force"](q, v - h * axis)) / (2 * h)
+            np.testing.assert_allclose(derivative, system["dforce_dv"] * axis, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("system_name", SYSTEMS)
+def test_a_damped_system_loses_energy_at_the_rate_its_dissipation_says(system_name):
+    """dE/dt = -dissipation along the motion (central differences over a fine RK4 run)."""
+    system = built(system_name)
+    if not system["damped"]:
+        pytest.skip(f"{system_name} is not damped")
+    dt = 1e-4
+    positions, velocities, energies = engine.simulate(engine.rk4_step, system, dt, 2000)
+    rate = (energies[2:] - energies[:-2]) / (2 * dt)
+    power = system["dissipation"](positions[1:-1], velocities[1:-1])
+    np.testing.assert_allclose(rate, -power, rtol=0, atol=1e-6 * power.max())  # central differences: ~1e-8
+
+
+@pytest.mark.parametrize("system_name", SYSTEMS)
+def test_a_motion_that_returns_comes_back_near_its_start(system_name):
+    """returns=True: within the chapter's 20 s the body leaves its start and comes back within 5% of the
+    farthest it went (fine RK4); returns=False: it never does."""
+    system = built(system_name)
+    positions, _, _ = engine.simulate(engine.rk4_step, system, 0.001, 20_000)
+    away = np.sqrt(np.sum((positions - positions[0]) ** 2, axis=1))
+    farthest = np.maximum.accumulate(away)
+    came_back = bool(np.any((away < 0.05 * farthest) & (farthest > 0)))
+    assert came_back == system["returns"], f"{system_name} declares returns={system['returns']}"
+
+
+def test_an_integrator_is_offered_exactly_where_its_needs_are_met():
+    """A step that needs a velocity-free force (velocity Verlet, say) is offered on the conservative systems,
+    not on the damped spring, and asking for it there is one line naming what it needs."""
+
+    @engine_registry.integrator("needs_velocity_free", order=1, force_evaluations=1, chapter=False,
+                                needs=["velocity_free"])
+    def step(q, v, m, force, dt):
+        return engine.semi_implicit_step(q, v, m, force, dt)
+
+    try:
+        offered = [name for name in SYSTEMS if "needs_velocity_free" in engine.integrators_for(built(name))]
+        assert offered == [name for name in SYSTEMS if built(name)["velocity_free"]]
+        problem = engine_registry.flag_problem("damped_spring", "needs_velocity_free", None, None)
+        assert problem == ("argument --integrator: needs_velocity_free needs a force that ignores the velocity"
+                           f" (velocity_free), which --system damped_spring does not have: try --system"
+                           f" {' or '.join(offered)}")
+        implicit = [name for name in SYSTEMS if "implicit" in engine.integrators_for(built(name))]
+        assert implicit == [name for name in SYSTEMS if built(name).get("dforce_dv") is not None]
+    finally:
+        del engine.INTEGRATORS["needs_velocity_free"]
+
+
+def test_simulate_long_is_simulate_in_pieces_bit_for_bit(monkeypatch):
+    """Pieces of 7 steps keep every 5th state and every energy: the same bits as one simulate() call."""
+    monkeypatch.setattr(engine, "PIECE_VALUES", 21)  # 7 steps of one body
+    system = built("orbit")
+    whole = engine.simulate(engine.rk4_step, system, 0.01, 100)
+    pieces = engine.simulate_long(engine.rk4_step, system, 0.01, 100, every=5)
+    kept = engine.kept_steps(100, 5)
+    for got, want in zip(pieces, (whole[0][kept], whole[1][kept], whole[2]), strict=True):
+        assert np.array_equal(got, want)
+
+
+# --- the import rule ---
+
+PROJECT = sorted([*REPO.glob("engine*.py"), *REPO.glob("curriculum/**/*.py"), *REPO.glob("exercises/**/*.py")])
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(REPO).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imports(path: Path, known: set) -> set:
+    """The project's modules `path` imports anywhere in it, at the top or inside a function (the project
+    writes no relative imports: a test below says so)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            assert not node.level, f"{path.relative_to(REPO)}: a relative import"
+            names = [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+        else:
+            continue
+        for name in names:
+            while name and name not in known:  # a.b.c -> the longest project module it names
+                name = name.rpartition(".")[0]
+            if name and name != module_name(path):
+                found.add(name)
+    return found
+
+
+def test_no_module_imports_one_that_imports_it():
+    """engine imports its extensions, and none of them imports engine back: no cycle among the project's
+    modules (tests and tools aside), counting imports inside functions too."""
+    known = {module_name(path) for path in PROJECT}
+    graph = {module_name(path): imports(path, known) for path in PROJECT}
+    assert graph["engine"] >= {"engine_damping", "engine_ensembles", "engine_recording", "engine_referee",
+                               "engine_registry"}
+
+    def cycle_from(start, path, seen):
+        for nxt in sorted(graph.get(path[-1], ())):
+            if nxt == start:
+                return [*path, start]
+            if nxt not in seen:
+                seen.add(nxt)
+                found = cycle_from(start, [*path, nxt], seen)
+                if found:
+                    return found
+        return None
+
+    cycles = [cycle for name in sorted(graph) if (cycle := cycle_from(name, [name], {name}))]
+    assert not cycles, "import cycles: " + "; ".join(" -> ".join(cycle) for cycle in cycles)
+    assert "sys.modules" not in (REPO / "engine.py").read_text()  # no registering itself under another name
