@@ -149,6 +149,17 @@ def test_a_changed_answer_is_attempt_2_the_same_one_a_replay_and_the_first_count
     assert "(2 attempts: the first counts)" in shown and not FIGURE.search(shown)
 
 
+def test_each_variant_of_a_question_counts_its_own_attempts():
+    """Exercise 3 on the orbit, then with --system spring: two questions, one attempt at each."""
+    book = journal.Journal(records=[{"kind": "predict", "ex": 3, "question": "", "answer": {"rk4": 16}, "chain": "a",
+                                     "t": "2025-11-25T10:02:00+01:00"},
+                                    {"kind": "predict", "ex": 3, "question": "system=spring", "answer": {"rk4": 32},
+                                     "chain": "b", "t": "2025-11-25T10:05:00+01:00"}])
+    assert course.status(book, 3, "ex3_halve_dt", "predict")[0] == "predicted Tue 25 Nov 10:02: not measured yet"
+    row = course._row("s", book, {}, {}, 3, "ex3_halve_dt", "predict")
+    assert (row["question"], row["first_prediction"], row["attempts"]) == ("", "rk4=16", 1)
+
+
 def test_a_line_cut_off_by_a_crash_is_skipped_and_noted(tmp_path, monkeypatch):
     path = tmp_path / "journal.jsonl"
     predicted(path, "ex1_band", "a", monkeypatch=monkeypatch)

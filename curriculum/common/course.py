@@ -265,6 +265,7 @@ def _row(student: str, book, files: dict, titles: dict, number: int, module: str
     predictions = [r for r in mine if r.get("kind") == "predict"]
     if predictions:
         first = predictions[0]
+        predictions = [r for r in predictions if r.get("question") == first.get("question")]  # its attempts
         marks = _marks(mine, first) or {}
         answer = first.get("answer")
         said = (", ".join(f"{k}={v}" for k, v in answer.items()) if isinstance(answer, dict) else
@@ -301,7 +302,8 @@ def _check_again(module: str, data: bytes | None) -> tuple[bool, str]:
             parts, messages, _ = checker.check(path)
         except student_code.ScratchProblem as error:
             raise OutputError(str(error), exit_code=2) from None
-    return all(parts.values()), " ".join(messages)
+    solved = all(parts.values())
+    return solved, "solved, checked again here" if solved else " ".join(messages)
 
 
 def _written(form: str, graded: dict) -> str:
