@@ -230,10 +230,11 @@ def grade(parser, found, path: Path, form: str, out: Path) -> int:
         book = journal.read(files[JOURNAL]) if files[JOURNAL] is not None else None
         graded[name] = {"book": book, "rows": [_row(name, book, files, titles, *item) for item in found]}
         for record in book.records if book else []:
-            owners.setdefault(record.get("chain"), set()).add(name)
+            owners.setdefault(str(record.get("chain")), set()).add(name)
     for name, result in graded.items():
         book = result["book"]
-        shared = sorted(set().union(*(owners[r.get("chain")] for r in book.records)) - {name}) if book else []
+        shared = sorted(set().union(*(owners[str(r.get("chain"))] for r in book.records if r.get("chain"))) - {name}) \
+            if book else []
         flags = [submissions[name].get("problem"), "no journal" if book is None else None,
                  book and book.edited and f"edited by hand: line {book.edited} does not follow from the one before",
                  shared and f"shares journal lines with {', '.join(shared)}: one is a copy",
