@@ -200,14 +200,14 @@ def every() -> list:
     return [task for name in METHODS for task in tasks(name)]
 
 
-def check(path: Path) -> tuple[bool, list[str], student_code.Run]:
-    """(both solved, one message per function, the run) for a file that compiles."""
+def check(path: Path) -> tuple[dict, list[str], student_code.Run]:
+    """({function: solved}, one message per function, the run) for a file that compiles."""
     run = student_code.collect(path, "exercises.support.ex2_cases", every(), PROG, TIME_LIMIT)
-    solved, messages, first = True, [], 0
+    parts, messages, first = {}, [], 0
     for name in METHODS:
-        ok, message = judge(name, path, run, list(range(first, first + len(tasks(name)))))
-        solved, messages, first = solved and ok, messages + [message], first + len(tasks(name))
-    return solved, messages, run
+        parts[name], message = judge(name, path, run, list(range(first, first + len(tasks(name)))))
+        messages, first = messages + [message], first + len(tasks(name))
+    return parts, messages, run
 
 
 def main(argv=None) -> int:

@@ -24,7 +24,7 @@ import numpy as np
 import engine
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
-from curriculum.common.predict import PerName, ask, explain
+from curriculum.common.predict import PerName, ask, explain, verdict
 
 SIM_SECONDS = 5.0  # not a whole number of periods: at one, some error terms cancel and the ladder zigzags
 # Each ladder starts where its method's error is already small. RK4's is so small by its last rungs
@@ -132,7 +132,8 @@ def main(argv=None) -> int:
     parser.add_argument("--system", choices=SYSTEMS, default="orbit", help="which system (default orbit)")
     prediction = ask(parser,
                      f"Halve dt, keeping {SIM_SECONDS:g} s of simulated time. By what factor does each integrator's"
-                     " final position error shrink?", PerName(engine.CHAPTER_INTEGRATORS, FACTORS), argv)
+                     " final position error shrink?", PerName(engine.CHAPTER_INTEGRATORS, FACTORS), argv,
+                     variant="system")
     system_name = parser.parsed.system
 
     errors = measure(system_name)
@@ -140,15 +141,14 @@ def main(argv=None) -> int:
     print_ladder(errors)
 
     print("\nGraded on the position error, against where its ladder settles:")
-    right = 0
+    truths = {}
     for name, guess in prediction.items():
         factor = settled(shrink_factors(errors["position"][name], FLOOR["position"]))
-        truth = nearest_power_of_two(factor)
-        right += guess == truth
+        truths[name] = truth = nearest_power_of_two(factor)
         mark = "right" if guess == truth else "not quite"
         print(f"  {name:<15} you said {guess:>2}, measured {factor:5.2f} -> {truth:>2}: {mark}"
               f" (order {math.log2(truth):g})")
-    print(f"{right} of 3.")
+    verdict(truths)
     explain(*story(system_name, errors))
     return 0
 

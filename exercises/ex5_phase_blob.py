@@ -204,6 +204,13 @@ def record(path: Path, table: dict) -> None:
 # --- the exercise ---
 
 
+def recording_refused(args) -> str | None:
+    """Why --rrd cannot take the recording, or None: checked before the prediction is recorded."""
+    args.rerun = recording_wanted("exercises.ex5_phase_blob", args.rerun)  # not under RERUN=off, Rerun's own switch
+    problem = recording_problem(args.rrd) if args.rerun else None
+    return problem and f"--rrd: {problem} (or pass --no-rerun)"
+
+
 @one_line_failures("exercises.ex5_phase_blob")
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex5_phase_blob", description=__doc__,
@@ -213,12 +220,8 @@ def main(argv=None) -> int:
                         help="where the recording goes (default outputs/ch3.3-engine/ex5_blob.rrd)")
     guess = ask(parser, "A disc of starting states in the spring's (x, v_x) plane runs 2000 steps of dt 0.01"
                 " under each integrator. What happens to the disc's area under each one?",
-                PerName(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv)
+                PerName(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv, check=recording_refused)
     args = parser.parsed
-    args.rerun = recording_wanted(parser.prog, args.rerun)  # not under RERUN=off, Rerun's own switch
-    problem = recording_problem(args.rrd) if args.rerun else None
-    if problem:
-        parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")
 
     omega = spring()[3]
     table = measure(DT, STEPS)
@@ -230,8 +233,7 @@ def main(argv=None) -> int:
         mark = "right" if guess[name] == answers[name] else f"no: it {answers[name]}"
         print(f"{name:<15}{row['measured']:>+15.4e}{row['closed_form']:>+15.4e}{row['worst_gap']:>26.1e}"
               f"   {guess[name]} ({mark})")
-    said = ", ".join(f"{name}={word}" for name, word in guess.items())
-    verdict(guess == answers, ", ".join(f"{name} {answer}" for name, answer in answers.items()), said)
+    verdict(answers)
 
     coarse = measure(COARSE_DT, STEPS)
     print(f"\nthe same at dt {COARSE_DT} (omega dt = {omega * COARSE_DT:g}), where RK4's change is plain:")

@@ -74,10 +74,10 @@ def print_map(grid: dict, here: tuple[int, int]) -> None:
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex6_stiff_damping", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    prediction = ask(parser,
-                     f"The chapter's spring (k = 4 N/m, m = 1 kg) with a damper of b = {DAMPING:g} N s/m, run for"
-                     f" {STEPS} steps of {DT * 1000:g} ms: which of {', '.join(NAMES)} stay bounded?",
-                     SomeOf(NAMES, "the ones that stay bounded", "an integrator"), argv)
+    ask(parser,
+        f"The chapter's spring (k = 4 N/m, m = 1 kg) with a damper of b = {DAMPING:g} N s/m, run for"
+        f" {STEPS} steps of {DT * 1000:g} ms: which of {', '.join(NAMES)} stay bounded?",
+        SomeOf(NAMES, "the ones that stay bounded", "an integrator"), argv)
 
     results = measure()
     k, m = 4.0, 1.0
@@ -90,9 +90,8 @@ def main(argv=None) -> int:
         print(f"{name:<15}{'yes' if bounded else 'NO':>9}   {story}")
     answer = frozenset(name for name, (bounded, _, _) in results.items() if bounded)
     shown = ", ".join(name for name in NAMES if name in answer) or "none"
-    said = ", ".join(name for name in NAMES if name in prediction) or "none"
     print()
-    verdict(prediction == answer, f"the ones that stay bounded are {shown}", said)
+    verdict(answer, f"the ones that stay bounded are {shown}")
 
     print_map(bounded_map(), (MAP_STIFFNESS.index(w), MAP_DAMPING.index(c)))
     bounds = {name: stability_map.analytic_interval(name, w) for name in NAMES}

@@ -1,9 +1,13 @@
 """Helpers shared by the tests: run engine.py the way a student does."""
 
+import hashlib
+import os
 import signal
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 # A runner may start the suite with Ctrl-C or SIGTERM ignored (a background job of a non-interactive shell is
 # started that way); the programs under test keep an ignored signal ignored, on purpose. The signal tests need
@@ -15,6 +19,23 @@ if signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
 
 REPO = Path(__file__).resolve().parents[1]
 ENGINE = REPO / "engine.py"
+
+# The exercises record every prediction and check in the checkout's journal (curriculum/common/journal.py). The
+# suite's runs are not a student's: nothing is recorded, in this process and in every process it starts, and a
+# test of the journal points COURSE_JOURNAL at a scratch file of its own.
+os.environ["COURSE_JOURNAL"] = "off"
+CHECKOUT_JOURNAL = REPO / "exercises" / "journal.jsonl"
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _the_checkouts_journal_is_left_alone():
+    def state():
+        return hashlib.sha256(CHECKOUT_JOURNAL.read_bytes()).hexdigest() if CHECKOUT_JOURNAL.exists() else None
+
+    before = state()
+    yield
+    assert state() == before, ("a test wrote into exercises/journal.jsonl: give the programs it starts the"
+                               " environment's COURSE_JOURNAL")
 
 
 def run_engine(*args, cwd=None, env=None, timeout=120):

@@ -16,7 +16,7 @@ from curriculum.common import student_code
 from exercises import check_ex2
 
 PLANTED = REPO / "tests" / "planted"
-PRISTINE = REPO / "tests" / "pristine" / "ex2_integrators.py"
+PRISTINE = REPO / "exercises" / "support" / "pristine" / "ex2_integrators.py"
 STUDENT = REPO / "exercises" / "ex2_integrators.py"
 SEMI, RK4 = "semi_implicit_step", "rk4_step"
 
@@ -58,8 +58,8 @@ def instructions(source):
 
 
 def test_the_students_file_still_carries_the_stubs_instructions():
-    """Graded is tests/pristine/'s copy; a maintainer who edits the stub edits that copy too. Once a student has
-    started (a TODO filled in), their file is theirs and is not compared."""
+    """Graded is exercises/support/pristine/'s copy; a maintainer who edits the stub edits that copy too. Once a
+    student has started (a TODO filled in), their file is theirs and is not compared."""
     if STUDENT.read_text().count("raise NotImplementedError") < 2:
         pytest.skip("exercises/ex2_integrators.py has been worked on: only the untouched stub is compared")
     try:
@@ -67,9 +67,9 @@ def test_the_students_file_still_carries_the_stubs_instructions():
     except SyntaxError:
         pytest.skip("exercises/ex2_integrators.py does not parse right now: run python -m exercises.check_ex2")
     pristine = instructions(PRISTINE.read_text())
-    assert student[0] == pristine[0], "the module docstrings of the stub and tests/pristine/ differ"
+    assert student[0] == pristine[0], "the module docstrings of the stub and exercises/support/pristine/ differ"
     for item in pristine[1:]:
-        assert item in student[1:], f"{item[0]}: signature or docstring differ between the stub and tests/pristine/"
+        assert item in student[1:], f"{item[0]}: signature or docstring differ between the stub and its pristine copy"
 
 
 RIGHTS = sorted(p.name for p in PLANTED.glob("right_*.py") if p.name not in ("right_spawns_sleeper.py",

@@ -17,7 +17,8 @@ from exercises import ex5_phase_blob as ex5
 
 def run_ex5(*args, cwd=REPO):
     return subprocess.run([sys.executable, "-m", "exercises.ex5_phase_blob", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=120, env={"PYTHONPATH": str(REPO), "PATH": ""})
+                          capture_output=True, text=True, timeout=120,
+                          env={"PYTHONPATH": str(REPO), "PATH": "", "COURSE_JOURNAL": "off"})
 
 
 def exact_det(name, h):

@@ -30,7 +30,8 @@ RIGHT = "spring=roundoff, orbit=smaller, freefall=roundoff"
 
 def run_ex7(*args, cwd=REPO):
     return subprocess.run([sys.executable, "-m", "exercises.ex7_shadow_energy", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=120, env={"PYTHONPATH": str(REPO), "PATH": ""})
+                          capture_output=True, text=True, timeout=120,
+                          env={"PYTHONPATH": str(REPO), "PATH": "", "COURSE_JOURNAL": "off"})
 
 
 @pytest.fixture(scope="module")
@@ -306,7 +307,7 @@ def test_a_signal_mid_run_ends_in_one_line_and_writes_nothing(signal_name, code,
         f"sys.argv = ['ex7', '--predict', {RIGHT!r}]\n"
         "runpy.run_module('exercises.ex7_shadow_energy', run_name='__main__', alter_sys=True)\n")
     result = subprocess.run([sys.executable, "-c", signals_itself], cwd=tmp_path, capture_output=True, text=True,
-                            env={"PYTHONPATH": str(REPO), "PATH": ""}, timeout=60)
+                            env={"PYTHONPATH": str(REPO), "PATH": "", "COURSE_JOURNAL": "off"}, timeout=60)
     assert result.returncode == code, result.stderr
     err = result.stderr
     assert len(err.splitlines()) == 1 and "no file was written" in err and "Traceback" not in err

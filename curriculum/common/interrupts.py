@@ -57,6 +57,11 @@ def active() -> bool:
     return _state["prog"] is not None
 
 
+def exit_code() -> int | None:
+    """What main() returned, once it has (None before, or if it raised)."""
+    return _state["code"]
+
+
 def finished(said: str, code: int | None) -> None:
     """main() has ended: from now on a signal says `said` (what was written) and that the run had finished.
     `code` is what main() returned (None if it raised: Python then ends the process its own way)."""

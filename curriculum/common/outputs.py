@@ -261,6 +261,7 @@ def _target_problem(folder: Path, name: str, dir_fd: int | None = None) -> str |
 # --- writing ---
 
 _last_write = {"folder": None, "names": (), "state": None}  # what the current main() has written, for its messages
+KEPT = []  # what main() keeps whatever happens next (a prediction in the journal): every one-line message says so
 
 
 def write_run(folder: Path, files: dict) -> None:
@@ -503,6 +504,7 @@ def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
         @functools.wraps(main)
         def guarded(*args, **kwargs):
             _last_write.update(folder=None, names=(), state=None)
+            KEPT.clear()
             if sys.stdout is None:  # started with stdout closed (`>&-`): the report would vanish, exit 0 would lie
                 return _stop(1, f"{prog}: error: standard output is closed, so the report could not be printed;"
                                 " nothing was run")
@@ -580,12 +582,13 @@ def _readable_paths() -> None:
 
 def _what_was_written() -> str:
     folder, names, state = _last_write["folder"], _last_write["names"], _last_write["state"]
+    said = "no file was written"
     if state == "written":
         listed = " and ".join(names)
-        return f"{listed} in {folder} {'were' if len(names) > 1 else 'was'} written before that"
-    if state == "writing":
-        return _kept(folder, names)
-    return "no file was written"
+        said = f"{listed} in {folder} {'were' if len(names) > 1 else 'was'} written before that"
+    elif state == "writing":
+        said = _kept(folder, names)
+    return "; ".join([said, *KEPT])
 
 
 def _install_sigterm():

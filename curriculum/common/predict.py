@@ -22,14 +22,25 @@ How an exercise uses it (ex4_long_run.py is a short example):
 - `verdict` and `explain` are the one place that prints the grade and the explanation, after the
   measurement. Keep measured answers out of the module docstring, --help and the question:
   tests/test_docs.py reads them for leaks.
+- The journal (curriculum.common.journal) is written here, so no exercise records anything itself: `ask`
+  records the prediction (with `--because`'s reason) before it returns, so before any figure; a bare run
+  records that the question was asked, or shows what was committed and when. `verdict` records how many
+  items were right. The first prediction of a question counts: a different answer later is the next
+  attempt, and the same one again a replay. A run that measured ends with the line
+  `curriculum.common.exercise.next_line` gives: the next exercise's command.
 """
 
 import argparse
+import atexit
+import contextlib
 import math
 import re
 import sys
 import textwrap
 from pathlib import Path
+
+from curriculum.common import interrupts, journal
+from curriculum.common.exercise import EXERCISE_FILE, EXERCISES, next_line
 
 # What people call the integrators and the answers, as the chapter, MuJoCo and textbooks write them; keys and
 # values are compared without case, spaces, '_' or '-' (see _name_key), so "Backward Euler" is backwardeuler.
@@ -181,26 +192,110 @@ def template(names, what: str = "value") -> str:
            f" with your {what} for each letter"
 
 
-def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None):
-    """Parse argv and return the parsed prediction; without --predict, ask the question and exit 0.
+def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, variant=None, check=None):
+    """Parse argv and return the parsed prediction, recorded in the journal first; without --predict, ask the
+    question (or show what was committed, and when) and exit 0.
 
-    `answers` is OneOf, Number or PerName (anything with .parse(text) and .forms). The extra
-    arguments an exercise adds to `parser` are in `parser.parsed`, the argparse namespace.
+    `answers` is OneOf, Number, PerName or SomeOf (anything with .parse(text) and .forms). The extra
+    arguments an exercise adds to `parser` are in `parser.parsed`, the argparse namespace. `variant` names
+    the one among them that makes another question of it (exercise 3's "system"): each of its values is a
+    question of its own in the journal. `check(args)` says why the other arguments cannot be used, or None;
+    it runs before the prediction is recorded, so bad input exits 2 with nothing recorded.
     """
     # nargs="+": `--predict euler=8, rk4=1` reaches us as several words; they are one answer
     parser.add_argument("--predict", metavar="ANSWER", nargs="+", action="extend",  # given twice: both count
                         help=f"your prediction: {answers.forms}")
+    parser.add_argument("--because", metavar="REASON", nargs="+", action="extend",
+                        help="why you predict that, in your words: recorded with your prediction")
     args = parser.parse_args(argv)
     parser.parsed = args
+    found = EXERCISE_FILE.fullmatch(f"{parser.prog.rpartition('.')[2]}.py")
+    number = int(found.group(1)) if found else None  # None: not one of the course's exercises, nothing recorded
+    value = getattr(args, variant) if variant else None
+    asked = f"{variant}={value}" if variant and value != parser.get_default(variant) else ""  # "": the default
     if args.predict is None:
-        print(question)
-        print(f"Answer with {answers.forms}.")
-        print(f"\nCommit to a prediction first, then run:  {how_it_was_run(parser.prog)} --predict ANSWER")
+        if args.because:
+            parser.exit(2, f"{parser.prog}: error: --because goes with --predict: commit to a prediction too\n")
+        run = how_it_was_run(parser.prog) + (f" --{variant} {value}" if asked else "")
+        show_question(run, question, answers, number, asked)
         sys.exit(0)
     try:
-        return answers.parse(" ".join(args.predict))
+        prediction = answers.parse(" ".join(args.predict))
     except ValueError as problem:
         parser.exit(2, f"{parser.prog}: error: --predict: {problem}\n")
+    problem = check(args) if check else None
+    if problem:
+        parser.exit(2, f"{parser.prog}: error: {problem}\n")
+    _asked.update(prediction=prediction, said=said(prediction, answers), number=number,
+                  **record(number, asked, prediction, args))
+    if interrupts.active() and number is not None:  # the exercise being run, not a test's main(): its last line
+        atexit.register(_say_next, number)
+    return prediction
+
+
+_asked = {}  # what ask() returned and recorded, for verdict()
+
+
+def show_question(run: str, question: str, answers, number: int, asked: str) -> None:
+    """A bare run: the question, then how to commit; or, once committed, what and when (no figure either way)."""
+    print(question)
+    tried = [r for r in journal.load().of(number) if r.get("kind") == "predict" and r.get("question") == asked]
+    if not tried:
+        if number is not None:  # once: the board says "asked" from here on
+            journal.append(lambda book: None if any(r.get("question") == asked for r in book.of(number)) else
+                           {"kind": "asked", "ex": number, "question": asked})
+        print(f"Answer with {answers.forms}.")
+        print(f"\nCommit to a prediction first, then run:  {run} --predict ANSWER [--because \"your reason\"]")
+        return
+    first = tried[0]
+    attempts = f" ({len(tried)} attempts: the first counts)" if len(tried) > 1 else ""
+    reason = f", because {first['because']}" if first.get("because") else ""
+    print(f"You committed {first.get('typed')} on {journal.when(first.get('t'))}{reason}{attempts}.")
+    print(f"\nTo see the measurement again:  {run} --predict ANSWER (the same answer is a replay, not an attempt)")
+
+
+def said(prediction, answers) -> str:
+    """A prediction as the student would say it: 'euler=grows, rk4=stays', 'rk4, implicit', 'none', '10,000'."""
+    if isinstance(prediction, dict):
+        return ", ".join(f"{name}={value}" for name, value in prediction.items())
+    if isinstance(prediction, frozenset):
+        return ", ".join(name for name in answers.names.names if name in prediction) or "none"
+    return f"{prediction:,}" if isinstance(prediction, int) else str(prediction)
+
+
+def record(number: int | None, asked: str, prediction, args) -> dict:
+    """The prediction in the journal, synced before any figure: a new answer is the next attempt at the question,
+    the same answer again a replay of the attempt it repeats. Returns {prediction id, note for verdict()}."""
+    answer = sorted(prediction) if isinstance(prediction, frozenset) else prediction
+    found = {}
+
+    def make(book):
+        tried = [r for r in book.of(number) if r.get("kind") == "predict" and r.get("question") == asked]
+        same = next((r for r in tried if r.get("answer") == answer), None)
+        found.update(first=tried[0] if tried else None, same=same)
+        if same:
+            return {"kind": "replay", "ex": number, "question": asked, "prediction": same.get("chain")}
+        return {"kind": "predict", "ex": number, "question": asked, "answer": answer,
+                "typed": " ".join(args.predict)[:200], "because": " ".join(args.because or [])[:1000],
+                "attempt": len(tried) + 1}
+
+    kept = f"your prediction is recorded in {journal.shown(journal.where() or Path())}"
+    written = journal.append(make, kept) if number is not None else None
+    if written is None:
+        return {"id": None, "note": ""}
+    same, first = found["same"], found["first"]
+    if same:
+        return {"id": same.get("chain"), "note": f"The same answer as your attempt {same.get('attempt')}"
+                f" ({journal.when(same.get('t'))}): a replay, not a new attempt."}
+    note = f"This was attempt {written['attempt']}: your first prediction, {journal.when(first.get('t'))}, is the" \
+           " one that counts." if first else ""
+    return {"id": written["chain"], "note": note}
+
+
+def _say_next(number: int) -> None:
+    if interrupts.exit_code() == 0:
+        with contextlib.suppress(OSError, ValueError):  # stdout closed: the guard says so, once
+            print(next_line(EXERCISES, number), flush=True)
 
 
 def how_it_was_run(module: str) -> str:
@@ -212,10 +307,24 @@ def how_it_was_run(module: str) -> str:
     return f"python -m {module}"
 
 
-def verdict(right: bool, answer: str, prediction) -> None:
-    """The grade, one line: 'Right: it is euler.' or 'Not quite: you said rk4, but it is euler.'"""
-    said = f"{prediction:,}" if isinstance(prediction, int) else prediction
-    print(f"Right: {answer}." if right else f"Not quite: you said {said}, but {answer}.")
+def verdict(truth, answer: str | None = None) -> None:
+    """The grade of what ask() returned, one line: 'Right: it is euler.' or 'Not quite: you said rk4, but it is euler.'
+
+    `truth` has the prediction's form (a value per name, a set of names, a name, a number); `answer` says
+    it in words ('it is euler'; for a value per name the default reads 'euler grows, rk4 stays'). How many
+    items were right goes to the journal, and a later attempt is told which prediction counts.
+    """
+    prediction = _asked["prediction"]
+    answer = answer or ", ".join(f"{name} {value}" for name, value in truth.items())
+    print(f"Right: {answer}." if prediction == truth else f"Not quite: you said {_asked['said']}, but {answer}.")
+    items = [prediction[name] == truth[name] for name in truth] if isinstance(truth, dict) else [prediction == truth]
+    if _asked["id"]:
+        journal.append(lambda book: None if any(r.get("kind") == "marks" and r.get("prediction") == _asked["id"]
+                                                for r in book.records) else
+                       {"kind": "marks", "ex": _asked["number"], "prediction": _asked["id"],
+                        "right": sum(items), "items": len(items)})
+    if _asked["note"]:
+        print(_asked["note"])
 
 
 def explain(*lines: str, width: int = 100) -> None:

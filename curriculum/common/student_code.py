@@ -406,8 +406,10 @@ def clash_sentence(clashes: list) -> str:
 
 
 def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int:
-    """`prog [FILE]`: check(path) -> (solved, messages, run) for a file that compiles; 0 solved, 1 not, 2 unusable."""
+    """`prog [FILE]`: check(path) -> ({function: solved}, messages, run) for a file that compiles; 0 solved, 1 not,
+    2 unusable. Each check goes to the journal (journal.checked), and the run ends with its "Next:" line."""
     from curriculum.common.cli import OneLineParser
+    from curriculum.common.journal import checked
     from curriculum.common.predict import explain
 
     parser = OneLineParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -422,14 +424,17 @@ def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int
             sentence, _, code = problem[1].partition("\n")
             explain(sentence)
             print(code + "\n\nNot solved yet: fix that line, and run the checker again.")
+            checked(default, args.file, {})
             return 1
         try:
-            solved, messages, run = check(args.file)
+            parts, messages, run = check(args.file)
         except ScratchProblem as error:
             parser.exit(2, f"{prog}: error: {error}\n")
         print_notes(run)
         explain(*messages)
+        solved = all(parts.values())
         print("\nAll solved." if solved else "\nNot solved yet: read the messages above, edit, and run it again.")
+        checked(default, args.file, parts)
         return 0 if solved else 1
     except BrokenPipeError:  # piped into `head`, which stopped reading: not an error worth a traceback
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
