@@ -139,13 +139,14 @@ def layered_widths(names, widest: float = 7.0, thinnest: float = 1.5) -> dict:
 
 
 def padded(values, margin: float = 0.05):
-    """(low, high) of the values with a margin, or None (the viewer's own fit) when there are none."""
+    """(low, high) of the values with a margin; (-1.0, 1.0) when none is finite (nothing is drawn: a run too
+    short to move logs the log10 of exact zeros), so a caller can always unpack it."""
     import numpy as np
 
     values = np.concatenate([np.ravel(v) for v in values]) if isinstance(values, list | tuple) else np.ravel(values)
     values = values[np.isfinite(values)]
     if values.size == 0:
-        return None
+        return (-1.0, 1.0)
     low, high = float(values.min()), float(values.max())
     pad = margin * ((high - low) or 1.0)
     return (low - pad, high + pad)
