@@ -25,8 +25,8 @@ import numpy as np
 import engine
 from curriculum.common import recording as course
 from curriculum.common import write_atomic
-from curriculum.common.cli import OneLineParser, recording_wanted
-from curriculum.common.outputs import one_line_failures, recording_problem
+from curriculum.common.cli import OneLineParser, exercise_recording
+from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import PerName, ask, explain, verdict
 
 CHOICES = ("grows", "stays", "shrinks")
@@ -215,10 +215,7 @@ def main(argv=None) -> int:
                 " under each integrator. What happens to the disc's area under each one?",
                 PerName(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv)
     args = parser.parsed
-    args.rerun = recording_wanted(parser.prog, args.rerun)  # not under RERUN=off, Rerun's own switch
-    problem = recording_problem(args.rrd) if args.rerun else None
-    if problem:
-        parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")
+    args.rerun = exercise_recording(parser, args.rerun, args.rrd)  # checked now; not under RERUN=off
 
     omega = spring()[3]
     table = measure(DT, STEPS)

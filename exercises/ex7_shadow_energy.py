@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from curriculum.common import write_atomic
-from curriculum.common.cli import OneLineParser
+from curriculum.common.cli import OneLineParser, exercise_recording
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import PerName, ask, explain, verdict
 from exercises.support import shadow
@@ -96,12 +96,7 @@ def main(argv=None) -> int:
                         help=f"where the recording goes (default {DEFAULT_RRD})")
     guess = ask(parser, QUESTION, PerName(list(SYSTEMS), CHOICES), argv)
     args = parser.parsed
-    if args.rerun:
-        from curriculum.common.outputs import recording_problem
-
-        problem = recording_problem(args.rrd)
-        if problem:
-            parser.exit(2, f"{parser.prog}: error: --rrd: {problem} (or pass --no-rerun)\n")
+    args.rerun = exercise_recording(parser, args.rerun, args.rrd)  # checked now; not under RERUN=off
 
     runs = measure_all()
     answers = print_table(runs, guess)

@@ -31,6 +31,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+from curriculum.common.cli import shown
+
 # What people call the integrators and the answers, as the chapter, MuJoCo and textbooks write them; keys and
 # values are compared without case, spaces, '_' or '-' (see _name_key), so "Backward Euler" is backwardeuler.
 ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler",
@@ -234,7 +236,7 @@ def _shown(text: str, limit: int = 40, quoted: bool = True) -> str:
     """How a refusal quotes what was typed: spaces run together, and at most `limit` characters of it."""
     text = " ".join(text.split())
     text = text if len(text) <= limit else f"{text[:limit - 3]}..."
-    return repr(text) if quoted else text
+    return repr(text) if quoted else shown(text, None)  # repr escapes; unquoted, shown() does
 
 
 def _spelled(n: int) -> str:
