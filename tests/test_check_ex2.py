@@ -119,8 +119,8 @@ PLANTED_MESSAGES = {
     "semi_os_exit.py": (SEMI, "ended by itself (exit code 0) during single steps from fresh states"),
     "semi_returns_none.py": (SEMI, "returns None: the function ends without returning (q_next, v_next)"),
     "semi_returns_one.py": (SEMI, "returns one array of shape (3,); it must return 2, (q_next, v_next)"),
-    "semi_returns_lists.py": (SEMI, "your function returns a list, not a numpy array, and a whole run hands each step"
-                                    " what the one before returned: given a list it raised TypeError"),
+    "semi_returns_lists.py": (SEMI, "your function returns a list, not a numpy array; a whole run hands each step"
+                                    " what the one before returned, then it raised TypeError"),
     "semi_signature_changed.py": (SEMI, "you changed its signature to semi_implicit_step(q, v, force, m, dt)"),
     "semi_raises.py": (SEMI, "it raised NameError: name 'v_nxt' is not defined in semi_implicit_step(), line 9 of"
                              " semi_raises.py"),

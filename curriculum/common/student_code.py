@@ -375,7 +375,7 @@ def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str |
         if result.get("problem") == "missing":
             return "not found in your file. Keep the function names as they are."
         if "problem" in result:
-            return f"your function {shown(result['problem'], None)}."
+            return f"your function {shown(result['problem'], 300)}."
     return None
 
 

@@ -100,9 +100,8 @@ def collect(steps, task: dict) -> dict:
             except Exception as error:
                 if isinstance(q, np.ndarray):
                     raise
-                raise NotOutputs(f"returns a {type(q).__name__}, not a numpy array, and a whole run hands each step"
-                                 f" what the one before returned: given a {type(q).__name__} it raised"
-                                 f" {type(error).__name__}: {str(error)[:100]}") from None
+                raise NotOutputs(f"returns a {type(q).__name__}, not a numpy array; a whole run hands each step what"
+                                 f" the one before returned, then it raised {type(error).__name__}: {error}") from None
             q_next, v_next = as_arrays(returned, STATE, (3,), np)
             if reused is None and any(np.shares_memory(a, b) for a in (q_next, v_next) for b in (q, v)):
                 reused = k
