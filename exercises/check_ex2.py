@@ -30,7 +30,7 @@ PROG, DEFAULT_FILE = "python -m exercises.check_ex2", Path(__file__).resolve().p
 METHODS = {"semi_implicit_step": ("semi-implicit Euler", engine.semi_implicit_step, 1, 1),
            "rk4_step": ("RK4", engine.rk4_step, 4, 4)}  # (what it is, the engine's step, order, force calls)
 ENGINE = SimpleNamespace(**{name: method[1] for name, method in METHODS.items()})
-TIME_LIMIT = 20.0  # seconds for one child to run everything; a normal check takes about one
+TIME_LIMIT = 20.0  # seconds for a child's start, again for importing the file, again for its tasks (about one in all)
 
 # Single steps from these states, on every system, at two timesteps: the arithmetic, system by system.
 STATES = {"spring": [([0.8, -0.3, 0.5], [0.2, 0.6, -0.4]), ([-1.1, 0.4, 0.2], [-0.5, 0.1, 0.9])],
@@ -38,6 +38,7 @@ STATES = {"spring": [([0.8, -0.3, 0.5], [0.2, 0.6, -0.4]), ([-1.1, 0.4, 0.2], [-
 SYSTEMS = (*ex2_cases.CHAPTER, *ex2_cases.OWN)
 PROBES = [{"system": system, "q": q, "v": v, "dt": dt} for system in SYSTEMS
           for q, v in STATES["orbit" if "orbit" in system else "spring"] for dt in (0.1, 0.03)]
+STARTS = np.array([[probe["q"], probe["v"]] for probe in PROBES])
 # Whole runs: the chapter's three as the chapter runs them, an orbit with drag, and two ladders (dt, then
 # dt/2) on springs whose exact motion is known, for the order of convergence.
 CHAPTER_RUN = {"dt": 0.01, "steps": 2000}
@@ -143,6 +144,16 @@ def verdict(measured: Measured, method: str, nominal: int) -> tuple[bool, str]:
                " given." if measured.reused else "") + " A step must depend only on what it is given: does yours"
             " keep something from one call to the next, write into arrays it returned before, or limit a value that"
             " single steps never reached?")
+    change, rk_change = mine - STARTS, measured.theirs - STARTS  # what a step adds, and what the engine's adds
+    if np.isfinite(change).all() and agrees(change, np.round(change)).all():
+        whole = ", ".join(map("{:g}".format, np.unique(np.round(change)) + 0.0))
+        return False, (f"every change your step makes is a whole number ({whole}). Is something divided with //?"
+                       " Floor division rounds down to a whole number: 0.1 // 6 is 0.")
+    scale = float(np.sum(change * rk_change) / np.sum(rk_change * rk_change))  # a uniform rescaling, if it is one
+    if measured.name == "rk4_step" and agrees(change, scale * rk_change).all():
+        return False, (f"every change your step makes is {scale:.5g} times RK4's: " + (
+            "close to 1, not 1. Is a fraction written as a rounded decimal?" if abs(scale - 1) < 0.01 else
+            f"the weights of your final blend add up to {scale:.5g}, not 1. What do the chapter's add up to?"))
     for function, variant, message, where_ in MISTAKES:
         relevant = [where_ == "all" or ex2_cases.velocity_free(p["system"]) for p in PROBES]
         theirs = ex2_cases.collect(SimpleNamespace(step=variant), tasks(function)[0] | {"function": "step"})

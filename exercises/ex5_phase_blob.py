@@ -25,9 +25,10 @@ import numpy as np
 import engine
 from curriculum.common import recording as course
 from curriculum.common import write_atomic
-from curriculum.common.cli import OneLineParser, recording_wanted
-from curriculum.common.outputs import one_line_failures, recording_problem
+from curriculum.common.cli import OneLineParser
+from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import PerName, ask, explain, verdict
+from curriculum.common.viewer import recording_refused
 
 CHOICES = ("grows", "stays", "shrinks")
 STEPS, DT, COARSE_DT = 2000, 0.01, 0.1
@@ -204,13 +205,6 @@ def record(path: Path, table: dict) -> None:
 # --- the exercise ---
 
 
-def recording_refused(args) -> str | None:
-    """Why --rrd cannot take the recording, or None: checked before the prediction is recorded."""
-    args.rerun = recording_wanted("exercises.ex5_phase_blob", args.rerun)  # not under RERUN=off, Rerun's own switch
-    problem = recording_problem(args.rrd) if args.rerun else None
-    return problem and f"--rrd: {problem} (or pass --no-rerun)"
-
-
 @one_line_failures("exercises.ex5_phase_blob")
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex5_phase_blob", description=__doc__,
@@ -220,7 +214,8 @@ def main(argv=None) -> int:
                         help="where the recording goes (default outputs/ch3.3-engine/ex5_blob.rrd)")
     guess = ask(parser, "A disc of starting states in the spring's (x, v_x) plane runs 2000 steps of dt 0.01"
                 " under each integrator. What happens to the disc's area under each one?",
-                PerName(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv, check=recording_refused)
+                PerName(list(engine.CHAPTER_INTEGRATORS), CHOICES), argv,
+                check=lambda args: recording_refused(parser.prog, args))
     args = parser.parsed
 
     omega = spring()[3]

@@ -27,8 +27,9 @@ import numpy as np
 
 from curriculum.common import write_atomic
 from curriculum.common.cli import OneLineParser
-from curriculum.common.outputs import one_line_failures, recording_problem
+from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import PerName, ask, explain, verdict
+from curriculum.common.viewer import recording_refused
 from exercises.support import shadow
 from exercises.support.shadow import DT, STEPS, SYSTEMS
 
@@ -87,12 +88,6 @@ def other_integrators() -> dict:
             for name in ("spring", "orbit") for integrator in ("euler", "rk4")}
 
 
-def recording_refused(args) -> str | None:
-    """Why --rrd cannot take the recording, or None: checked before the prediction is recorded."""
-    problem = recording_problem(args.rrd) if args.rerun else None
-    return problem and f"--rrd: {problem} (or pass --no-rerun)"
-
-
 @one_line_failures("exercises.ex7_shadow_energy")  # Ctrl-C or a closed stdout: one line, no traceback
 def main(argv=None) -> int:
     parser = OneLineParser(prog="exercises.ex7_shadow_energy", description=__doc__,
@@ -100,7 +95,8 @@ def main(argv=None) -> int:
     parser.add_argument("--no-rerun", dest="rerun", action="store_false", help="skip writing the recording")
     parser.add_argument("--rrd", type=Path, metavar="PATH", default=DEFAULT_RRD,
                         help=f"where the recording goes (default {DEFAULT_RRD})")
-    guess = ask(parser, QUESTION, PerName(list(SYSTEMS), CHOICES), argv, check=recording_refused)
+    guess = ask(parser, QUESTION, PerName(list(SYSTEMS), CHOICES), argv,
+                check=lambda args: recording_refused(parser.prog, args))
     args = parser.parsed
 
     runs = measure_all()

@@ -1,4 +1,7 @@
-"""The engine's conservative systems as MuJoCo models, for parity tests and the benchmark.
+"""The engine's conservative systems as MuJoCo models, for the parity tests and the maintainers' tools.
+
+A module, not a script: `python tools/mujoco_parity.py` prints the figures it gives; tools put tests/ on
+their import path to use it (tools/bench.py, tools/mujoco_rollout.py).
 
 One body of mass 1 on slide joints, so MuJoCo's qpos/qvel are exactly the engine's q/v
 (no quaternions, a diagonal mass matrix of ones) and no contacts:
@@ -8,16 +11,13 @@ One body of mass 1 on slide joints, so MuJoCo's qpos/qvel are exactly the engine
   the engine's own force law, handed to MuJoCo through the passive-force callback.
 """
 
-import sys
 from contextlib import contextmanager
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
-import engine  # noqa: E402
-from conftest import run
+import engine
 
 BODY = '<inertial pos="0 0 0" mass="{m}" diaginertia="1 1 1"/>'
 SLIDES = "".join(f'<joint name="{axis}" type="slide" axis="{vec}" {{extra}}/>'
@@ -136,34 +136,3 @@ def damped_trajectory(integrator: str, damping: float, dt: float = 0.01, steps: 
             if reset_at is None and data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
                 reset_at = i
     return positions, reset_at
-
-
-def print_damped_parity(dampings=(0.5, 4.0, 300.0)) -> None:
-    """The damped spring's parity figures: ours against MuJoCo's integrators, dt 0.01, 2000 steps."""
-    pairs = (("Euler", "implicit"), ("implicitfast", "implicit"), ("implicit", "implicit"),
-             ("Euler", "semi_implicit"), ("RK4", "rk4"))
-    for b in dampings:
-        system = engine.build_system("damped_spring", np.random.default_rng(0), b)
-        ours = {name: engine.simulate(step, system, 0.01, 2000)[0]
-                for name, step in engine.integrators_for(system).items()}
-        for theirs, mine in pairs:
-            positions, reset_at = damped_trajectory(theirs, b)
-            blown = np.flatnonzero(~np.isfinite(ours[mine][:, 0]))
-            upto = min(len(positions), reset_at or len(positions), blown[0] if blown.size else len(positions))
-            gap = np.abs(ours[mine][:upto] - positions[:upto]).max()  # up to a reset or a blow-up
-            notes = [f"ours non-finite from step {blown[0]:,}; compared before that"] if blown.size else []
-            if reset_at is not None:
-                notes.append(f"MuJoCo blew up and reset at step {reset_at:,}; compared before that")
-            print(f"damped_spring b {b:<4g} mujoco {theirs:<12} vs {mine:<14} max |q_ours - q_mujoco| = {gap:.3g}"
-                  + (f" ({'; '.join(notes)})" if notes else ""))
-
-
-if __name__ == "__main__":
-    # python tests/mujoco_models.py: the parity figures the README quotes
-    for name in ("spring", "freefall", "orbit"):
-        system = engine.build_system(name, np.random.default_rng(0))
-        for theirs, ours in (("Euler", "semi_implicit"), ("RK4", "rk4")):
-            mine, _, _ = run(name, ours)
-            gap = np.abs(mine - mujoco_trajectory(name, theirs)).max()
-            print(f"{name:<9} mujoco {theirs:<6} vs {ours:<14} max |q_ours - q_mujoco| = {gap:.3g} over 2000 steps")
-    print_damped_parity()

@@ -119,6 +119,8 @@ PLANTED_MESSAGES = {
     "semi_os_exit.py": (SEMI, "ended by itself (exit code 0) during single steps from fresh states"),
     "semi_returns_none.py": (SEMI, "returns None: the function ends without returning (q_next, v_next)"),
     "semi_returns_one.py": (SEMI, "returns one array of shape (3,); it must return 2, (q_next, v_next)"),
+    "semi_returns_lists.py": (SEMI, "your function returns a list, not a numpy array; a whole run hands each step"
+                                    " what the one before returned, then it raised TypeError"),
     "semi_signature_changed.py": (SEMI, "you changed its signature to semi_implicit_step(q, v, force, m, dt)"),
     "semi_raises.py": (SEMI, "it raised NameError: name 'v_nxt' is not defined in semi_implicit_step(), line 9 of"
                              " semi_raises.py"),
@@ -169,6 +171,11 @@ PLANTED_MESSAGES = {
     "rk4_heun.py": (RK4, "this is Heun's method, slopes at the start and the end averaged: halving dt divides"),
     "rk4_weights_over_4.py": (RK4, "the weights of your final blend add up to 1.5, not 1"),
     "rk4_weights_over_3.py": (RK4, "the weights of your final blend add up to 2, not 1"),
+    "rk4_weights_over_5.py": (RK4, "every change your step makes is 1.2 times RK4's: the weights of your final blend"
+                                   " add up to 1.2, not 1"),
+    "rk4_floor_division.py": (RK4, "every change your step makes is a whole number (0). Is something divided with"
+                                   " //?"),
+    "rk4_floor_division_last.py": (RK4, "every change your step makes is a whole number (-1, 0)"),
     "rk4_missing_dt.py": (RK4, "your final update has no dt in it"),
     "rk4_k2_full_step.py": (RK4, "your k2 is sampled a whole dt out"),
     "rk4_k3_full_step.py": (RK4, "your k3 is sampled a whole dt out"),
@@ -196,7 +203,8 @@ PLANTED_MESSAGES = {
                                          " threading, which Python imports first"),
     "clash_helper/student.py": ("both", "random.py beside your file has the name of Python's standard module random"),
 }
-QUICK = {"semi_mass_twice.py", "rk4_stage_velocity_not_passed.py", "rk4_three_eighths.py", "right_stacked.py",
+QUICK = {"semi_mass_twice.py", "semi_returns_lists.py", "rk4_floor_division.py", "rk4_weights_over_5.py",
+         "rk4_stage_velocity_not_passed.py", "rk4_three_eighths.py", "right_stacked.py",
          "rk4_stateful_reuses_slope.py", "semi_aliasing_buffers.py", "both_clamp_velocity.py",
          "clash_threading/student.py", "semi_force_list.py"}
 

@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from conftest import ENGINE, REPO, run_engine
+from conftest import ENGINE, REPO, as_nobody, run_engine
 from curriculum.common.exercise import exercises
 
 
@@ -231,3 +231,115 @@ def test_help_into_a_full_stdout_is_exit_1_not_a_silent_0():
     assert result.returncode == 1
     assert result.stderr == ("engine.py: error: could not print the report (No space left on device: stdout closed"
                              " or full?); no file was written\n")
+
+
+# --- issue 27: stderr closed, what the terminal is sent, exercises' --rrd ---
+
+
+def with_stderr_closed(*args, signal_after=None):
+    """(exit code, stdout) of `python ARGS` started with stderr closed (`2>&-`) and stdout a pipe."""
+    child = subprocess.Popen([sys.executable, *map(str, args)], cwd=REPO, stdout=subprocess.PIPE, text=True,
+                             preexec_fn=lambda: os.close(2))
+    if signal_after:
+        time.sleep(signal_after)
+        child.send_signal(signal.SIGINT)
+    out, _ = child.communicate(timeout=300)
+    return child.returncode, out
+
+
+@pytest.mark.parametrize("args, code, last", [
+    (["engine.py", "--steps", "100000", "--no-rerun"], 0, "wall-clock: "),  # progress on
+    (["engine.py", "--ensemble", "100000", "--steps", "10", "--no-rerun"], 0, "wall-clock: "),  # seeds' progress
+    (["-m", "exercises.ex4_long_run", "--predict", "10"], 0, "Next: exercise 5"),
+])
+def test_with_stderr_closed_what_it_would_say_goes_to_stdout(args, code, last, tmp_path):
+    """Before: exit 1 and not a word anywhere (progress lines went to a sys.stderr that was None)."""
+    returned, out = with_stderr_closed(*args, *(["--out", tmp_path] if args[0] == "engine.py" else []))
+    assert returned == code and out.splitlines()[-1].startswith(last) and "Traceback" not in out
+
+
+@pytest.mark.slow
+def test_ctrl_c_with_stderr_closed_says_so_on_stdout(tmp_path):
+    returned, out = with_stderr_closed("engine.py", "--steps", "3000000", "--integrator", "euler", "--no-rerun",
+                                       "--out", tmp_path, signal_after=3.0)
+    assert returned == 130 and out.splitlines()[-1] == "interrupted: no file was written"
+
+
+LONG = "x" * 5000
+
+
+@pytest.mark.parametrize("args", [["engine.py", f"--{LONG}"], ["engine.py", LONG], ["engine.py", "--system", LONG],
+                                  ["engine.py", "--out", LONG], ["-m", "exercises.check_ex2", f"{LONG}.py"],
+                                  ["-m", "exercises.ex3_halve_dt", "--system", LONG, "--predict", "1"]])
+def test_a_name_of_5000_characters_comes_back_short(args):
+    """Before: one line of 5,057 characters or more, the whole name."""
+    result = subprocess.run([sys.executable, *args], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and len(result.stderr.splitlines()) == 1 and len(result.stderr) < 300
+    assert "xxx...xxx" in result.stderr
+
+
+@pytest.mark.parametrize("args", [["engine.py", "--out", "a\nb\nc"], ["engine.py", "--out", "a\x1b[2Jb"],
+                                  ["engine.py", "--sys\x1b[2Jtem", "orbit"], ["engine.py", "--system", "\u202eorbit"],
+                                  ["-m", "exercises.check_ex2", "a\x1b[2J.py"]])
+def test_what_was_typed_comes_back_escaped(args, tmp_path):
+    """An --out holding a newline gave three lines; escape sequences and bidi overrides reached the terminal."""
+    args = [ENGINE, *args[1:]] if args[0] == "engine.py" else args
+    result = subprocess.run([sys.executable, *args], cwd=tmp_path, capture_output=True, text=True, timeout=60,
+                            env={**os.environ, "PYTHONPATH": str(REPO)})
+    assert result.returncode == 2 and len(result.stderr.splitlines()) == 1 and result.stdout == ""
+    assert not re.search("[\x00-\x09\x0b-\x1f\u202a-\u202e]", result.stderr), result.stderr
+    assert "\\n" in result.stderr or "\\x1b" in result.stderr or "\\u202e" in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+EXERCISE_RECORDINGS = [("ex5_phase_blob", "euler=grows,semi_implicit=stays,rk4=shrinks"),
+                       ("ex7_shadow_energy", "spring=roundoff,orbit=smaller,freefall=roundoff")]
+
+
+def broken_rerun(tmp_path):
+    fake = tmp_path / "site" / "rerun"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("from rerun_bindings import a_name_this_build_lacks\n")  # a half-installed SDK
+    return {"PYTHONPATH": str(tmp_path / "site")}
+
+
+@pytest.mark.parametrize("exercise, prediction", EXERCISE_RECORDINGS)
+@pytest.mark.parametrize("case", ["a name too long", "rerun-sdk broken", "a control character"])
+def test_an_exercises_recording_that_cannot_be_made_is_one_line_before_it_measures(exercise, prediction, case,
+                                                                                  tmp_path):
+    """Before: a PermissionError or OSError traceback (exit 1), or Rerun's traceback once the exercise had run."""
+    rrd = {"a control character": tmp_path / "a\x1b[2J.rrd"}.get(case, tmp_path / ("x" * 300 + ".rrd"))
+    env = {**os.environ, **(broken_rerun(tmp_path) if case == "rerun-sdk broken" else {})}
+    if case == "rerun-sdk broken":
+        rrd = tmp_path / "blob.rrd"
+    started = time.monotonic()
+    result = subprocess.run([sys.executable, "-m", f"exercises.{exercise}", "--predict", prediction, "--rrd", rrd],
+                            cwd=REPO, capture_output=True, text=True, timeout=120, env=env)
+    assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1
+    assert "Traceback" not in result.stderr and "--no-rerun" in result.stderr
+    assert time.monotonic() - started < 5, "refused before the measurement"
+    assert sorted(p.name for p in tmp_path.iterdir()) in ([], ["site"])
+
+
+@pytest.mark.parametrize("exercise, prediction", EXERCISE_RECORDINGS)
+def test_an_exercises_recording_in_a_folder_that_cannot_be_searched_is_one_line(exercise, prediction, shared_tmp):
+    """As an unprivileged user: the folder can be read and written, but not searched (mode 766)."""
+    (shared_tmp / "closed").mkdir()
+    (shared_tmp / "closed").chmod(0o766)
+    loaded = (f"import runpy, pkgutil, exercises.{exercise}, numpy.random, gettext, locale, shutil, textwrap, json,"
+              " fractions, rerun, rerun.blueprint, curriculum.common.recording, exercises.support.shadow_recording")
+    code = (f"import sys, warnings; warnings.simplefilter('ignore'); sys.argv = ['x', *sys.argv[1:]];"
+            f" runpy.run_module('exercises.{exercise}', run_name='__main__')")
+    result = as_nobody(code, "--predict", prediction, "--rrd", shared_tmp / "closed" / "x.rrd", load=loaded)
+    assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1, result.stderr
+    assert "Permission denied" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_rerun_switched_off_makes_exercise_7_skip_its_recording_in_one_line(tmp_path):
+    """Before: exercise 7 ran to its end, then printed Rerun's warnings and a traceback (exit 1)."""
+    result = subprocess.run([sys.executable, "-m", "exercises.ex7_shadow_energy", "--predict",
+                             EXERCISE_RECORDINGS[1][1], "--rrd", str(tmp_path / "x.rrd")],
+                            cwd=REPO, capture_output=True, text=True, timeout=120, env={**os.environ, "RERUN": "off"})
+    assert result.returncode == 0 and list(tmp_path.iterdir()) == []
+    assert result.stderr == ("exercises.ex7_shadow_energy: note: RERUN=off is set, so no recording is made"
+                             " (as with --no-rerun)\n")

@@ -1,14 +1,11 @@
 """Each integrator against exact solutions: convergence order, RK4 exact on freefall, a flat band."""
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
-import engine  # noqa: E402
+import engine
 
 # Every declared system with a closed form, and every integrator that can run it: a new one is tested here
 # the day it is declared. HORIZON: sim seconds, fixed while dt shrinks (one orbit for the orbit).
@@ -106,10 +103,3 @@ def test_semi_implicit_energy_band_is_flat_over_a_million_steps():
     _, _, euler = engine.simulate(engine.euler_step, system, 0.01, 20_000)
     assert engine.energy_drift(euler)["rel_max"] > 1.1 * engine.energy_drift(euler[:10_001])["rel_max"]
 
-
-if __name__ == "__main__":
-    # python tests/test_closed_form.py: the measured orders the README quotes
-    for system_name in ("spring", "orbit"):
-        for integrator in engine.CHAPTER_INTEGRATORS:
-            orders = ", ".join(f"{order:.3f}" for order in measured_orders(system_name, integrator))
-            print(f"{system_name:<7}{integrator:<15}dt {ladder(integrator)[0]:g} halved 5 times: orders {orders}")

@@ -131,3 +131,32 @@ def test_importing_a_script_installs_no_guard():
     interrupts.guard("imported.py")  # called from this module, which is not __main__
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
     assert not interrupts.active()
+
+
+def test_rounded_keeps_a_huge_numpy_float_finite():
+    """numpy's round(x, 12) multiplies by 1e12 first: from 1.8e296 a float64 became inf, which strict JSON refuses
+    (engine.py --system damped_spring --dt 1e12 --steps 3 computed, then could not write metrics.json)."""
+    import numpy as np
+
+    from curriculum.common.report import metrics_text, rounded
+
+    assert rounded({"work": [np.float64(9.99e302), np.float64(-3.0e76)]}) == {"work": [9.99e302, -3.0e76]}
+    assert type(rounded(np.float64(0.25))) is float and rounded(np.float64(-1e-13)) == 0.0
+    metrics_text(rounded({"work": np.float64(1e308)}))  # no ValueError
+
+
+def test_padded_gives_a_range_even_when_nothing_is_finite():
+    """An ensemble whose every error is the log10 of an exact zero left the recording nothing to unpack."""
+    import numpy as np
+
+    from curriculum.common.recording import padded
+
+    assert padded([np.full(4, -np.inf), np.array([np.nan])]) == (-1.0, 1.0)
+    assert padded(np.array([0.0, 1.0])) == (-0.05, 1.05)
+
+
+def test_shown_escapes_what_a_terminal_obeys_and_cuts_long_text():
+    from curriculum.common.cli import shown
+
+    assert shown("a\x1b[2Jb\u202ec\nd\x85é") == "a\\x1b[2Jb\\u202ec\\nd\\x85é"
+    assert shown("x" * 5000) == "x" * 24 + "..." + "x" * 13 and shown("x" * 5000, None) == "x" * 5000

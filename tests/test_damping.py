@@ -1,7 +1,7 @@
 """The damped spring and the implicit step (issue 12), against independent truth:
 the closed-form solution, the damper's work, the one-step eigenvalues, and MuJoCo 3.10.0's own integrators.
 
-`python tests/mujoco_models.py` prints the parity figures;
+`python tools/mujoco_parity.py` and `python tools/damped_convergence.py` print the figures docs/damping.md quotes;
 `python -m exercises.support.stability_map` prints the stability table.
 """
 
@@ -16,13 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
-import engine  # noqa: E402
-import engine_damping  # noqa: E402
-import engine_referee  # noqa: E402
-from conftest import REPO, ensemble_of, run, run_engine  # noqa: E402
-from exercises import ex6_stiff_damping  # noqa: E402
-from exercises.support import stability_map  # noqa: E402
+import engine
+import engine_damping
+import engine_referee
+from conftest import REPO, ensemble_of, run, run_engine
+from exercises import ex6_stiff_damping
+from exercises.support import stability_map
 
 STIFF = 300.0  # b at dt 0.01: dt b/m = 3, the stiff case of the issue
 
@@ -401,24 +400,3 @@ def test_ex6_answer_is_the_stability_map_at_its_damping():
     grid = ex6_stiff_damping.bounded_map()
     assert grid["implicit"][-1].all() and not grid["implicit"][0, :3].any()  # any damping; not any stiffness
 
-
-if __name__ == "__main__":
-    # python tests/test_damping.py: the convergence figures docs/damping.md quotes
-    system, seconds = damped(), 5.0
-    ladders = {}
-    for dt in (0.02, 0.01, 0.005, 0.0025):
-        steps = round(seconds / dt)
-        for name, (p, v, e) in run_all(system, dt, steps).items():
-            audits = [engine_damping.against_exact(system, p[:n + 1], v[:n + 1], e[:n + 1], engine.kept_steps(n), dt)
-                      for n in (round(t / dt) for t in (1.0, 2.0, 3.0, 4.0, 5.0))]
-            ladders.setdefault(name, []).append((max(abs(a["work_mismatch"]) for a in audits),
-                                                 max(a["err_max"] for a in audits)))
-    print(f"damped_spring b {engine_damping.DAMPING}, 5 s, dt 0.02 halved 3 times; the worst energy audit at"
-          " t = 1..5 s, and the worst |q - q_exact| over the whole run:")
-    for column, what in ((0, "|E lost - damper work| / E0"), (1, "|q - q_exact|")):
-        print(f"  {what}:")
-        for name, ladder in ladders.items():
-            values = [rung[column] for rung in ladder]
-            orders = [math.log2(a / b) for a, b in zip(values[:-1], values[1:], strict=True)]
-            print(f"    {name:<14}" + "  ".join(f"{x:.3e}" for x in values)
-                  + "   orders " + ", ".join(f"{o:.3f}" for o in orders))

@@ -5,7 +5,7 @@ constant force, not for a cubic one), the freefall's closed form for E's drift, 
 E~ band as dt halves, and MuJoCo 3.10.0's own mjINT_EULER. The issue's table is pinned at the digits the
 exercise prints, with tolerances argued from the arithmetic beside each.
 
-`python tests/test_ex7.py` prints the MuJoCo figures that exercises/solutions/ANSWERS.md quotes.
+`python tools/mujoco_shadow.py` prints the MuJoCo figures that exercises/solutions/ANSWERS.md quotes.
 """
 
 import re
@@ -13,16 +13,14 @@ import subprocess
 import sys
 import time
 from fractions import Fraction
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run as a script from anywhere, too
-import engine  # noqa: E402
-from conftest import REPO  # noqa: E402
-from exercises import ex7_shadow_energy as ex7  # noqa: E402
-from exercises.support import shadow  # noqa: E402
+import engine
+from conftest import REPO
+from exercises import ex7_shadow_energy as ex7
+from exercises.support import shadow
 
 EPS = np.finfo(float).eps
 RIGHT = "spring=roundoff, orbit=smaller, freefall=roundoff"
@@ -408,11 +406,3 @@ def test_as_a_student_runs_it_the_recording_goes_under_outputs(tmp_path):
     assert (tmp_path / "outputs" / "ch3.3-engine" / "ex7_shadow.rrd").stat().st_size > 0
     assert [p.name for p in (tmp_path / "outputs" / "ch3.3-engine").iterdir()] == ["ex7_shadow.rrd"]
 
-
-if __name__ == "__main__":
-    for k, m in [(4.0, 1.0), (3.0, 2.5)]:
-        energy_band, shadow_band, roundoff = mujoco_bands(k, m)
-        print(f"MuJoCo mjINT_EULER, slide joint k {k:g}, m {m:g}, dt {shadow.DT}, {shadow.STEPS:,} steps:"
-              f" E band {energy_band:.2e}, E~ band {shadow_band:.0e} (round-off bound {roundoff:.0e})")
-    _, shadow_band, roundoff = mujoco_bands(4.0, 1.0, damping=0.5)
-    print(f"the same with damping 0.5: E~ band {shadow_band:.2e} (round-off bound {roundoff:.0e})")

@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 import engine as chapter
-from conftest import REPO
+from conftest import NOBODY, REPO, as_nobody
 from conftest import run as run_alone
 from curriculum.common import outputs
 from curriculum.common.outputs import OutputError, content_id, folder_problem, read_run, write_run
@@ -315,28 +315,6 @@ def test_the_check_tries_and_leaves_no_trace(tmp_path):
 
 # --- permissions, as a real unprivileged user ---
 
-NOBODY = 65534
-
-
-@pytest.fixture
-def shared_tmp():
-    """A folder an unprivileged user can reach (pytest's tmp_path is private to root)."""
-    if os.geteuid() != 0:
-        pytest.skip("dropping to an unprivileged user needs root; as a normal user os.access is already honest")
-    where = Path(tempfile.mkdtemp(prefix="outputs-perm-"))
-    where.chmod(0o755)
-    yield where
-    shutil.rmtree(where)
-
-
-def as_nobody(code: str, *args, load: str = "import curriculum.common.outputs") -> subprocess.CompletedProcess:
-    """Run `code` as user nobody. The interpreter (under /root, private) starts as root and imports what
-    `load` names, then drops every privilege for good before `code` touches a file."""
-    drop = f"import os; {load}; os.setgroups([]); os.setgid({NOBODY}); os.setuid({NOBODY})\n"
-    return subprocess.run([sys.executable, "-c", drop + code, *map(str, args)], cwd=REPO,
-                          capture_output=True, text=True, timeout=60)
-
-
 CHECK = "import sys; from pathlib import Path; from curriculum.common.outputs import folder_problem\n" \
         "assert os.geteuid() != 0 and not os.access('/root', os.R_OK)\n" \
         "print(folder_problem(Path(sys.argv[1]), ['engine.rrd', 'metrics.json']))"
@@ -417,7 +395,7 @@ def test_a_signal_between_the_renames_waits_until_the_pair_is_whole(signame, cod
 
 def test_signals_are_held_only_inside_the_critical_section():
     with pytest.raises(KeyboardInterrupt):
-        with outputs._signals_deferred():
+        with outputs.signals_held():
             os.kill(os.getpid(), signal.SIGINT)
             held = True  # reached: the signal waited
     assert held and signal.getsignal(signal.SIGINT) is signal.default_int_handler
@@ -964,3 +942,161 @@ def test_a_memory_limit_too_small_for_numpy_is_one_line(tmp_path):
                              " limit (ulimit -v) or close other programs, and run it again\n",
                              "engine.py: error: not enough memory to start (MemoryError); raise the memory"
                              " limit (ulimit -v) or close other programs, and run it again\n")
+
+
+# --- issue 27: another user's symlink, a shared folder, a folder that cannot be read, a flickering parent ---
+
+OTHER_USER = 65533  # any uid but ours and nobody's: the user who plants the link
+
+
+def planted_link(tmp_path: Path) -> tuple:
+    """A sticky folder everyone may write to (like /tmp), where another user made `out` -> a folder of theirs
+    holding a metrics.json and an engine.rrd. (Linux's fs.protected_symlinks, off here, would refuse it.)"""
+    if os.geteuid() != 0:
+        pytest.skip("making a link that belongs to another user needs root")
+    shared, theirs = tmp_path / "shared", tmp_path / "theirs"
+    shared.mkdir()
+    shared.chmod(0o1777)
+    (theirs / "deeper").mkdir(parents=True)
+    for name in PAIR:
+        (theirs / name).write_text("theirs\n")
+    (shared / "out").symlink_to(theirs)
+    for path in (theirs, theirs / "deeper", *(theirs / name for name in PAIR), shared / "out"):
+        os.lchown(path, OTHER_USER, OTHER_USER)
+    return shared, theirs
+
+
+@pytest.mark.parametrize("flags, out", [([], "shared/out"), (["--no-rerun"], "shared/out"),
+                                        (["--no-rerun"], "shared/out/deeper"), (["--no-rerun"], "mine")])
+def test_a_symlink_another_user_planted_in_a_shared_folder_is_never_followed(flags, out, tmp_path):
+    """Before, the run exited 0 and replaced the other user's files; `mine` is our own link leading to theirs."""
+    shared, theirs = planted_link(tmp_path)
+    (tmp_path / "mine").symlink_to(shared / "out")
+    result = engine("--smoke", *flags, "--out", tmp_path / out)
+    assert_one_line(result, 2, "--out", f"goes through {shared / 'out'}, a symbolic link that user {OTHER_USER} made")
+    assert [(theirs / name).read_text() for name in PAIR] == ["theirs\n"] * 2 and listing(theirs) == ["deeper", *PAIR]
+    assert listing(theirs / "deeper") == []
+
+
+def test_a_link_planted_after_the_check_is_refused_by_the_writer_too(tmp_path):
+    shared, theirs = planted_link(tmp_path)
+    assert outputs.folder_problem(shared / "out").startswith(f"{shared / 'out'} goes through")
+    with pytest.raises(OutputError) as refused:
+        write_run(shared / "out", {"metrics.json": "{}\n"})
+    assert refused.value.exit_code == 2 and (theirs / "metrics.json").read_text() == "theirs\n"
+
+
+def test_our_own_link_in_a_shared_folder_is_followed(tmp_path):
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o1777)
+    (tmp_path / "mine").mkdir()
+    (shared / "out").symlink_to(tmp_path / "mine")
+    assert engine("--smoke", "--no-rerun", "--out", shared / "out").returncode == 0
+    assert listing(tmp_path / "mine") == ["metrics.json"]
+
+
+RACE = textwrap.dedent("""
+    import os, sys, time
+    import engine, numpy.random, gettext, locale, json, pkgutil, shutil, textwrap
+    go, uid = sys.argv[1], int(sys.argv[2])
+    os.setgroups([]); os.setgid(uid); os.setuid(uid)
+    while not os.path.exists(go):
+        time.sleep(0.002)
+    sys.exit(engine.main(sys.argv[3:]))
+""")
+
+
+def test_two_users_started_together_into_a_new_shared_folder_never_fail_after_the_run(shared_tmp):
+    """The folder gets its creator's umask, so only its creator may write in it. Before, the other user's run
+    computed, then failed at the write (exit 1); now the check makes the folder, and the other is refused first."""
+    shared = shared_tmp / "shared"
+    shared.mkdir()
+    shared.chmod(0o1777)
+    for trial in range(4):
+        go, out = shared_tmp / f"go{trial}", shared / f"run{trial}"
+        runs = [subprocess.Popen([sys.executable, "-c", RACE, str(go), str(uid), "--smoke", "--no-rerun", "--out",
+                                  str(out)], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                for uid in (NOBODY, OTHER_USER)]
+        time.sleep(1.5)  # both have loaded and wait
+        go.touch()
+        ended = sorted((run.wait(timeout=120), run.stderr.read()) for run in runs)
+        assert ended[0] == (0, ""), ended
+        assert ended[1] == (0, "") or (ended[1][0] == 2 and ended[1][1].endswith(f"{out}: Permission denied (see"
+                                                                                  " --help)\n")), ended
+
+
+def test_a_folder_that_can_be_written_but_not_read_is_refused_before_the_run(shared_tmp):
+    """Mode 333: a file can be made in it, but the writer opens the folder to take its turn. Before: exit 1,
+    after the run, with a reason about creating files."""
+    (shared_tmp / "wx").mkdir()
+    (shared_tmp / "wx").chmod(0o333)
+    code = "import sys; sys.exit(engine.main(['--smoke', '--out', sys.argv[1]]))"
+    result = as_nobody(code, shared_tmp / "wx", load="import engine, numpy.random, gettext, locale, shutil, textwrap")
+    assert_one_line(result, 2, "--out", "wx lets files be made in it but not read (d-wx-wx-wx)")
+
+
+def test_a_name_that_appears_and_vanishes_at_the_parent_never_raises_from_the_check(tmp_path):
+    """Another process makes and removes a file, a folder and a dangling link at --out's parent, over and over;
+    the check answers each time, whatever it finds (before: FileNotFoundError from inside the check)."""
+    parent, stop = tmp_path / "flicker", tmp_path / "stop"
+    toggler = subprocess.Popen([sys.executable, "-c", textwrap.dedent("""
+        import os, sys
+        parent, stop = sys.argv[1:3]
+        while not os.path.exists(stop):
+            for make, remove in ((lambda: open(parent, "w").close(), os.unlink), (lambda: os.mkdir(parent), os.rmdir),
+                                 (lambda: os.symlink("/nowhere", parent), os.unlink)):
+                try:
+                    make()
+                    remove(parent)
+                except OSError:
+                    pass
+    """), str(parent), str(stop)])
+    try:
+        answers = {folder_problem(parent / "out", PAIR) is None for _ in range(20_000)}
+    finally:
+        stop.touch()
+        toggler.wait(timeout=30)
+    assert answers  # every call returned
+
+
+# --- issue 27: the run's numbers at the edges, and Rerun's sink dropped by a signal ---
+
+
+@pytest.mark.parametrize("flags", [["--system", "damped_spring", "--dt", "100", "--damping", "1e6", "--steps", "5"],
+                                   ["--system", "damped_spring", "--dt", "1e12", "--steps", "3"],
+                                   ["--dt", "1e-320", "--ensemble", "3"]])
+def test_overflowing_and_unmoving_runs_write_their_files(flags, tmp_path):
+    """numpy's round() of a float64 past 1.8e296 gave inf, which strict JSON refused after the run; an ensemble
+    whose every error is log10(0) gave the recording no range to unpack. Both were tracebacks."""
+    result = engine(*flags, "--out", tmp_path)
+    assert result.returncode == 0 and "Traceback" not in result.stderr, result.stderr
+    strict_json(tmp_path / "metrics.json")
+    assert recording_id(tmp_path / "engine.rrd") == json.loads((tmp_path / "metrics.json").read_text())["run_id"]
+
+
+SINK_MOMENT = textwrap.dedent("""
+    import os, signal, sys
+    import engine, rerun, rerun._memory
+    owner = {"stream": rerun.RecordingStream, "memory": rerun._memory.MemoryRecording}[sys.argv[1]]
+    attribute, before = sys.argv[2], sys.argv[3] == "before"
+    real = getattr(owner, attribute)
+    def signal_here(*args, **kwargs):  # SIGTERM lands at this exact moment of building the recording
+        setattr(owner, attribute, real)
+        if before:
+            os.kill(os.getpid(), signal.SIGTERM)
+        result = real(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGTERM)
+        return result
+    setattr(owner, attribute, signal_here)
+    sys.exit(engine.main(["--smoke", "--out", sys.argv[4]]))
+""")
+
+
+@pytest.mark.parametrize("moment", [("stream", "memory_recording", "after"), ("memory", "drain_as_bytes", "before")])
+def test_sigterm_as_rerun_makes_or_drains_its_sink_is_one_line_and_no_warning(moment, tmp_path):
+    """Landing between the sink's making and its draining, SIGTERM left Rerun data to drop: a coloured WARN line."""
+    result = subprocess.run([sys.executable, "-c", SINK_MOMENT, *moment, str(tmp_path)], cwd=REPO,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 143 and result.stderr == "terminated: no file was written\n"
+    assert listing(tmp_path) == []

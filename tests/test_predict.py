@@ -4,6 +4,7 @@ linear in what was typed."""
 
 import argparse
 import os
+import re
 import subprocess
 import sys
 import time
@@ -172,3 +173,24 @@ def test_ask_reads_a_megabyte_in_many_words_at_once(capsys):
         ask(parser, "Which?", PerName(NAMES, FACTORS), ["--predict", *["a" + " " * 1000] * 1000, "b"])
     assert exited.value.code == 2 and time.perf_counter() - started < 1.0
     assert len(capsys.readouterr().err.splitlines()) == 1
+
+
+RAW = re.compile("[\x00-\x08\x0b-\x1f\x7f\u202a-\u202e\u2066-\u2069]")  # what a terminal would obey
+
+
+@pytest.mark.parametrize("module, typed", [
+    ("ex1_band", "euler=\x1b[31mgrows,semi_implicit=stays,rk4=grows"), ("ex1_band", "euler=\u202e8"),
+    ("ex3_halve_dt", "euler=1 \x1b[2J,semi_implicit=1,rk4=1"), ("ex3_halve_dt", "rk4=\u202e1"),
+    ("ex5_phase_blob", "euler=grows,semi_implicit=st\x1b]0;x\x07ays,rk4=grows"), ("ex5_phase_blob", "\u202eeuler=x"),
+])
+def test_a_prediction_holding_escape_sequences_or_bidi_overrides_comes_back_escaped(module, typed):
+    """Before, exercises 1, 3 and 5 echoed the value of a per-name answer raw: the terminal obeyed it."""
+    result = exercise(module, "--predict", typed)
+    assert result.returncode == 2 and len(result.stderr.splitlines()) == 1
+    assert not RAW.search(result.stderr) and ("\\x1b" in result.stderr or "\\u202e" in result.stderr)
+
+
+def test_an_unquoted_value_in_a_refusal_is_escaped_too():
+    with pytest.raises(ValueError) as refused:
+        PerName(NAMES, WORDS).parse("euler=gr\x1bows")
+    assert "gr\\x1bows is not one of" in str(refused.value)

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path[:0] = [str(HERE.parent), str(HERE)]
+sys.path[:0] = [str(HERE.parent), str(HERE), str(HERE.parent / "tests")]  # the engine, the baseline, the MuJoCo models
 
 import bench_baseline as baseline  # noqa: E402
 import engine  # noqa: E402
@@ -51,22 +51,22 @@ def whole_run_seconds(script, *flags):
         return best_seconds(lambda: subprocess.run(cmd, check=True, capture_output=True))
 
 
-def mujoco_rows():
-    """ns/step of mj_step on the same one-body models: a Python loop, and nstep in C."""
+def mujoco_rows(steps=STEPS, repeats=REPEATS):
+    """ns/step of mj_step on the same one-body models (tests/mujoco_models.py): a Python loop, and nstep in C."""
     try:
         import mujoco
-
-        from mujoco_models import build, passive_force
     except ImportError:
         return None
+    from mujoco_models import build, passive_force  # not under the try: a missing model module is a bug to see
+
     rows = {}
     for system_name in SYSTEMS:
         for integrator in ("Euler", "RK4"):
             model, data, system, _ = build(system_name, integrator)
             with passive_force(system_name, system):
-                loop = best_seconds(lambda m=model, d=data: [mujoco.mj_step(m, d) for _ in range(STEPS)])
-                nstep = best_seconds(lambda m=model, d=data: mujoco.mj_step(m, d, nstep=STEPS))
-            rows[system_name, integrator] = (loop / STEPS * 1e9, nstep / STEPS * 1e9)
+                loop = best_seconds(lambda m=model, d=data: [mujoco.mj_step(m, d) for _ in range(steps)], repeats)
+                nstep = best_seconds(lambda m=model, d=data: mujoco.mj_step(m, d, nstep=steps), repeats)
+            rows[system_name, integrator] = (loop / steps * 1e9, nstep / steps * 1e9)
     return rows, mujoco.__version__
 
 

@@ -1,8 +1,9 @@
 """Command-line plumbing every chapter script shares, so the chapter files keep only their own flags.
 
-    from curriculum.common.cli import OneLineParser, positive_finite, int_in, name_arg, progress_printer
+    from curriculum.common.cli import OneLineParser, positive_finite, int_in, name_arg, progress_printer, shown
 
-Bad input gets one line naming the problem and exit code 2, never a usage block or a traceback.
+Bad input gets one line naming the problem and exit code 2, never a usage block or a traceback. What the user
+typed comes back through shown(): escaped, so a terminal never obeys it, and cut where it is long.
 """
 
 import argparse
@@ -46,7 +47,14 @@ class OneLineParser(argparse.ArgumentParser):
             known = [flag for flag in self._option_string_actions if flag.startswith("--")]
             guesses = [match for word in typed for match in difflib.get_close_matches(word, known, n=1, cutoff=0.75)]
             hint = f"; did you mean {' and '.join(guesses)}?" if guesses else ""
-        self.exit(2, f"{self.prog}: error: {message}{hint} (see --help)\n")
+            message = f"unrecognized arguments: {shown(message[24:])}"
+        self.exit(2, f"{self.prog}: error: {shown(message, None)}{hint} (see --help)\n")
+
+    def _check_value(self, action, value):
+        """argparse's refusal of a name that is not a choice, quoting it short: a 5,000-character name is no line."""
+        if action.choices is not None and value not in action.choices:
+            raise argparse.ArgumentError(action, f"invalid choice: '{shown(value)}' (choose from"
+                                                 f" {', '.join(map(repr, action.choices))})")
 
 
 def name_arg(text: str) -> str:
@@ -97,7 +105,20 @@ def int_in(low: int, high: int | None, what: str):
 def as_typed(text: str, most: int = 40) -> str:
     """`text` as the user typed it, cut to `most` characters with its length said: a 5,000-digit number fits a line."""
     text = text.strip()
-    return text if len(text) <= most else f"{text[:most - 10]}... ({len(text):,} characters)"
+    return shown(text if len(text) <= most else f"{text[:most - 10]}... ({len(text):,} characters)", None)
+
+
+UNSHOWN = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")  # controls, bidi
+
+
+def shown(text, most: int | None = 40) -> str:
+    """User text (a name, a path, a prediction) as a message quotes it: control characters and bidi overrides
+    escaped (\\x1b, \\n, \\u202e), so a terminal shows them instead of obeying them; past `most` characters,
+    the start and the end around '...', so a 5,000-character name is still one short line."""
+    text = str(text)
+    if most and len(text) > most:
+        text = f"{text[:most - most // 3 - 3]}...{text[-(most // 3):]}"
+    return UNSHOWN.sub(lambda match: match.group().encode("unicode_escape").decode(), text)
 
 
 def rerun_switched_off() -> str | None:

@@ -20,6 +20,7 @@ error keeps its traceback: that is a bug to report.
 
 It acts only in the program being run (the module calling it is __main__): importing engine.py from an
 exercise or a test installs nothing. Loads nothing heavy: atexit, os, signal and sys are built in.
+With stderr closed (`2>&-`) and stdout open, what would go to stderr goes to stdout (say() and sys.stderr).
 """
 
 import atexit
@@ -29,10 +30,9 @@ import sys
 
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 WORDS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
-STANDARD_STREAMS = (0, 1, 2)
 
 # What a signal arriving now would have to say; one_line_failures' main() updates it as it finishes.
-_state = {"prog": None, "said": "no file was written", "code": None}
+_state = {"prog": None, "said": "no file was written", "code": None, "err": 2}
 
 
 def guard(prog: str) -> None:
@@ -44,7 +44,9 @@ def guard(prog: str) -> None:
 def install(prog: str) -> None:
     """guard() without its check of who calls it: for a helper that made that check for its own caller."""
     _state["prog"] = prog
-    _keep_standard_streams()
+    closed = _keep_standard_streams()
+    if 2 in closed and 1 not in closed:  # stderr closed, stdout open: the lines go to stdout, not nowhere
+        _state["err"], sys.stderr = 1, sys.stdout
     for number in EXIT_CODES:
         if signal.getsignal(number) is not signal.SIG_IGN:  # nohup and friends ignore on purpose
             signal.signal(number, _stop)
@@ -70,13 +72,8 @@ def finished(said: str, code: int | None) -> None:
 
 
 def _exit_now() -> None:
-    """The last exit handler: end the process with main()'s exit code once every other handler has run.
-
-    What Python's own shutdown would do next takes ~0.3 s once Rerun is loaded (its threads and libraries
-    unload), and by then Python has reset the signal handlers: a Ctrl-C there would end the process
-    silently with -2 although the run had finished. Nothing is left to do by then: the run's files
-    were written with os.write and synced, and the streams are flushed here.
-    """
+    """The last exit handler: end the process with main()'s exit code once every other handler has run (see
+    the module's docstring). The run's files were written and synced; the streams are flushed here."""
     code = _state["code"]
     if code is None:
         return
@@ -86,7 +83,7 @@ def _exit_now() -> None:
     except (OSError, ValueError) as error:
         if code == 0:
             why = getattr(error, "strerror", None) or str(error)
-            _say(f"{_state['prog']}: error: could not print the report ({why}: stdout closed or full?)")
+            say(f"{_state['prog']}: error: could not print the report ({why}: stdout closed or full?)")
             code = 1
     try:
         if sys.stderr is not None:
@@ -96,9 +93,10 @@ def _exit_now() -> None:
     os._exit(code)
 
 
-def _say(line: str) -> None:
+def say(line: str) -> None:
+    """Write one line to stderr (to stdout if only stderr was closed at start), now and unbuffered; never raises."""
     try:
-        os.write(2, f"{line}\n".encode(errors="backslashreplace"))
+        os.write(_state["err"], f"{line}\n".encode(errors="backslashreplace"))
     except OSError:
         pass
 
@@ -112,24 +110,23 @@ def _stop(number, frame):
             sys.stdout.flush()  # a report already printed reaches its pipe before we go
     except (OSError, ValueError):
         pass
-    try:
-        os.write(2, f"{line}\n".encode(errors="backslashreplace"))
-    except OSError:
-        pass
+    say(line)
     os._exit(EXIT_CODES[number])
 
 
-def _keep_standard_streams() -> None:
-    """A standard stream closed when we start (`>&-`) gets /dev/null in its place.
+def _keep_standard_streams() -> list:
+    """A standard stream closed when we start (`>&-`) gets /dev/null in its place; returns the closed ones.
 
     Otherwise the next file we open takes its number, and whatever writes to that stream (a library's
     warning, our own report) would write into one of the run's files. sys.stdout stays None, so
     one_line_failures still knows the report has nowhere to go.
     """
-    for fd in STANDARD_STREAMS:
+    closed = []
+    for fd in (0, 1, 2):  # stdin, stdout, stderr
         try:
             os.fstat(fd)
         except OSError:
+            closed.append(fd)
             try:
                 devnull = os.open(os.devnull, os.O_RDWR)
                 if devnull != fd:
@@ -137,6 +134,7 @@ def _keep_standard_streams() -> None:
                     os.close(devnull)
             except OSError:
                 pass
+    return closed
 
 
 def memory_problem(error: BaseException) -> str | None:
@@ -188,10 +186,7 @@ def _one_line_hook(previous):
         else:
             previous(kind, error, traceback)  # a bug: its traceback is what a report needs
             return
-        try:
-            os.write(2, f"{line}\n".encode(errors="backslashreplace"))
-        except OSError:
-            pass
+        say(line)
         os._exit(code)
 
     return hook

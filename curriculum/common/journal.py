@@ -153,7 +153,7 @@ def append(make, kept: str | None = None) -> dict | None:
             lines.append(json.dumps(item) + "\n")
         cut_off = "\n" if data and not data.endswith(b"\n") else ""  # a line a crash cut off stays a line apart
         out = (cut_off + "".join(lines)).encode()
-        with outputs._signals_deferred():  # the same hold as a run's own files: Ctrl-C waits, then is said
+        with outputs.signals_held():  # the same hold as a run's own files: Ctrl-C waits, then is said
             while out:  # one write() in practice; the lock keeps any remainder next to it
                 out = out[os.write(fd, out):]
             os.fsync(fd)

@@ -3,9 +3,12 @@
     from curriculum.common.outputs import folder_problem, write_run, one_line_failures, content_id
 
 - `folder_problem(out, names)` says, before any simulation, why `out` cannot take a run's files: it tries
-  (creates a file with no name where `out`, or its deepest existing folder, is) instead of trusting
-  os.access, which says yes to root for /sys and read-only folders. It creates no folder: runs started
-  together into a missing folder must not see it appear and vanish; write_run() makes it and keeps it.
+  (creates a file where `out`, or its deepest existing folder, is) instead of trusting os.access, which
+  says yes to root for /sys and read-only folders. It refuses a path through a symbolic link another user
+  planted in a shared sticky folder (like /tmp), as the kernel's protected_symlinks does. It creates no
+  folder (runs started together into a missing one must not see it appear and vanish), except inside a
+  folder others may write to: there it makes the missing ones at once and keeps them, so that another
+  user's run started together finds them and is refused before its run, not after.
 - `write_run(out, {"engine.rrd": data, "metrics.json": text})` replaces a run's files together: each goes
   to a new file with an unguessable name in `out` (created exclusively, never through a symlink),
   flushed to disk; only when all are complete are they renamed into place, and the folder is synced.
@@ -15,6 +18,7 @@
   failure into one line and exit 1 (2 for bad input), and a closed or full stdout into one line.
 """
 
+import argparse
 import contextlib
 import errno
 import functools
@@ -28,6 +32,7 @@ import threading
 from pathlib import Path
 
 from curriculum.common import interrupts
+from curriculum.common.cli import UNSHOWN, shown
 from curriculum.common.interrupts import memory_problem, signal_in
 
 try:
@@ -36,11 +41,13 @@ except ImportError:  # Windows: no flock; each file is still replaced atomically
     fcntl = None
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+PRINTING = (errno.EPIPE, errno.ENOSPC, errno.EIO, errno.EBADF, errno.EDQUOT, errno.EFBIG)  # print(), closed or full
 # Where the OS lets us (Linux, macOS), every name is opened relative to the folder we locked, so a
 # folder swapped for a symlink mid-write cannot redirect us. Elsewhere the same steps go by path.
 BY_FOLDER = (fcntl is not None and hasattr(os, "O_DIRECTORY")
              and {os.open, os.rename, os.unlink, os.stat} <= os.supports_dir_fd)
 NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+NAME_AND_PATH_MAX = (("PC_NAME_MAX", 255), ("PC_PATH_MAX", 4096))  # os.pathconf's names, and where it has none
 
 
 class OutputError(Exception):
@@ -65,12 +72,18 @@ def content_id(data: bytes | str) -> str:
 
 
 def folder_arg(text: str) -> Path:
-    """Argument type for an output folder: any path except the empty one (which would mean the current folder)."""
+    """Argument type for an output folder: any path but the empty one (the current folder) or one that holds a
+    control character or a bidi override (every line that names the folder would show it garbled)."""
     if not text.strip():
-        import argparse
-
         raise argparse.ArgumentTypeError("the output folder is empty; name one, e.g. outputs/run1")
+    if UNSHOWN.search(text):
+        raise argparse.ArgumentTypeError(f"'{shown(text)}' holds a control character; name the folder plainly")
     return Path(text)
+
+
+def _p(path) -> str:
+    """A path as a message shows it: escaped, and cut in the middle past 100 characters."""
+    return shown(path, 100)
 
 
 # --- what the OS said, as one line ---
@@ -108,31 +121,22 @@ def _make_folders(path: Path, created: list) -> None:
 def _describe(out: Path, error: OSError) -> str:
     """Why `out` cannot be a folder for our files, from the error the OS gave."""
     if error.errno == errno.ENAMETOOLONG:
-        longest = max(out.parts, key=len)
-        if len(os.fsencode(longest)) > _name_max(out):
-            return (f"{out} cannot be created: a name in it is {len(longest)} characters, longer than the file "
-                    f"system allows ({_name_max(out)})")
-        return _path_too_long(out, _path_max(out))
+        return _too_long(out, [out, *out.parents], anyway=True)
     if error.errno == errno.ELOOP:
-        return f"{out} cannot be used: it goes through a symbolic link that loops"
+        return f"{_p(out)} cannot be used: it goes through a symbolic link that loops"
     for path in [out, *out.parents]:
-        if os.path.islink(path) and not os.path.exists(path):
-            return f"{out} cannot be used: {path} is a symbolic link to {os.readlink(path)}, which does not exist"
-        if os.path.exists(path) and not os.path.isdir(path):
-            what = "a file" if stat.S_ISREG(os.stat(path).st_mode) else "not a folder"
-            return f"{out} cannot hold files: {path} is {what}"
+        with contextlib.suppress(OSError):  # a name that appears and vanishes meanwhile is passed by
+            if os.path.islink(path) and not os.path.exists(path):
+                return f"{_p(out)} cannot be used: {_p(path)} is a symbolic link to {_p(os.readlink(path))}, which" \
+                       " does not exist"
+            if os.path.exists(path) and not os.path.isdir(path):
+                what = "a file" if stat.S_ISREG(os.stat(path).st_mode) else "not a folder"
+                return f"{_p(out)} cannot hold files: {_p(path)} is {what}"
     if error.errno == errno.ENOENT:  # "no such file" although the folders exist: /proc and its kind
         existing = next(path for path in [out, *out.parents] if os.path.isdir(path))
-        return f"cannot create a file in {out}: {existing} exists but does not let files or folders be created in it"
-    return f"cannot create a file in {out}: {_says(error)}"
-
-
-def _name_max(out: Path) -> int:
-    return _pathconf(out, "PC_NAME_MAX", 255)
-
-
-def _path_max(out: Path) -> int:
-    return _pathconf(out, "PC_PATH_MAX", 4096)
+        return f"cannot create a file in {_p(out)}: {_p(existing)} exists but does not let files or folders be" \
+               " created in it"
+    return f"cannot create a file in {_p(out)}: {_says(error)}"
 
 
 def _pathconf(out: Path, name: str, default: int) -> int:
@@ -146,16 +150,12 @@ def _pathconf(out: Path, name: str, default: int) -> int:
 
 
 def folder_problem(out: Path, names=()) -> str | None:
-    """Why `out` cannot take files called `names`, or None if it can. Takes milliseconds; creates nothing.
+    """Why `out` cannot take files called `names`, or None if it can. Takes milliseconds.
 
-    It tries instead of guessing (os.access says yes to root for /sys and read-only folders): in
-    `out`, or where `out` does not exist yet in the deepest folder that does, it creates a file that
-    has no name (O_TMPFILE: it vanishes when closed, so nothing is left even in an append-only
-    folder), or where the file system cannot, an empty file with an unguessable name that it
-    removes again. No folder is created: runs started together into a missing folder must not find
-    it appearing and disappearing under them; write_run() creates what is missing and keeps it.
-    A folder, an immutable file or a file of someone else's sticky folder in the place of one of
-    `names` is refused as well, since the run could not replace it.
+    It tries (see the module's docstring): a file with no name (O_TMPFILE: nothing is left even in an
+    append-only folder), or where the file system has none, an empty file with an unguessable name,
+    removed again; and it opens `out` as write_run() will. A folder, an immutable file or someone else's
+    file of a sticky folder in the place of one of `names` is refused too: the run could not replace it.
     """
     out = Path(out)  # (an empty --out is refused by folder_arg: Path("") would be the current folder)
     try:
@@ -164,16 +164,47 @@ def folder_problem(out: Path, names=()) -> str | None:
         if not os.path.isdir(existing):
             os.stat(existing)  # a symlink that loops or leads nowhere raises here, a file below
             raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(existing))
-        too_long = _too_long(out, missing)
-        if too_long:
-            return too_long
+        problem = _planted(out) or (_too_long(out, missing) if missing else None)
+        if problem:
+            return problem
+        if missing and os.stat(existing).st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+            _make_folders(out, [])
+            missing, existing = [], out
         _probe(existing)
+        if not missing and BY_FOLDER:
+            try:
+                os.close(os.open(out, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC))  # as write_run() opens it
+            except PermissionError:
+                return f"{_p(out)} lets files be made in it but not read ({stat.filemode(os.stat(out).st_mode)})," \
+                       " and the writer must open it; choose another output folder"
         if not missing:
             for problem in [_unreplaceable(out, "the folder"), *(_target_problem(out, name) for name in names)]:
                 if problem:
                     return problem
     except OSError as error:
         return _describe(out, error)
+    return None
+
+
+def _planted(out: Path) -> str | None:
+    """Whether the way to `out` (links in links' targets too) follows a symbolic link another user made in a sticky
+    folder all may write to (/tmp): the kernel's protected_symlinks rule, which some machines turn off."""
+    here, parts, hops = Path(), list(out.parts), 0
+    while parts and hops < 40 and hasattr(os, "geteuid"):
+        step = here / parts.pop(0)
+        try:
+            link = os.lstat(step)
+            if not stat.S_ISLNK(link.st_mode):
+                here = step
+                continue
+            folder = os.stat(here)
+            if folder.st_mode & 0o1002 == 0o1002 and link.st_uid not in (os.geteuid(), folder.st_uid):
+                return f"{_p(out)} goes through {_p(step)}, a symbolic link that user {link.st_uid} made in a" \
+                       " sticky folder everyone may write to; following it could write into files not yours." \
+                       " Choose another output folder"
+            parts[:0], hops = Path(os.readlink(step)).parts, hops + 1  # an absolute target restarts at /
+        except OSError:
+            return None  # missing or closed to us: nothing beyond it is followed now
     return None
 
 
@@ -194,24 +225,18 @@ def _probe(folder: Path) -> None:
         raise OSError(error.errno, f"{_says(error)} (and the empty file {probe.name} could not be removed)") from None
 
 
-def _too_long(out: Path, missing: list) -> str | None:
-    """Whether a missing folder's name, or the whole path, is longer than the file system takes."""
-    if not missing:
-        return None
-    name_max = _name_max(missing[0].parent)
-    longest = max((folder.name for folder in missing), key=len)
+def _too_long(out: Path, folders: list, anyway: bool = False) -> str | None:
+    """Whether one of `folders`' names, or else the whole path, is longer than the file system takes (the path,
+    `anyway`: the OS said a name was too long, and none is)."""
+    name_max, path_max = (_pathconf(folders[-1].parent, name, default) for name, default in NAME_AND_PATH_MAX)
+    longest = max((folder.name for folder in folders), key=len)
     if len(os.fsencode(longest)) > name_max:
-        return (f"{out} cannot be created: a name in it is {len(longest)} characters, longer than the file "
+        return (f"{_p(out)} cannot be created: a name in it is {len(longest)} characters, longer than the file "
                 f"system allows ({name_max})")
-    path_max = _path_max(missing[0].parent)
-    if len(os.fsencode(os.path.abspath(out))) + 1 + len("metrics.json.0123456789abcdef.tmp") >= path_max:
-        return _path_too_long(out, path_max)
+    if anyway or len(os.fsencode(os.path.abspath(out))) + 1 + len("metrics.json.0123456789abcdef.tmp") >= path_max:
+        return (f"{_p(str(out)[:60])}... cannot be used: the path is {len(os.fsencode(os.path.abspath(out))):,}"
+                f" bytes long, more than the system takes in one path ({path_max:,}), though no name in it is too long")
     return None
-
-
-def _path_too_long(out: Path, path_max: int) -> str:
-    return (f"{str(out)[:60]}... cannot be used: the path is {len(os.fsencode(os.path.abspath(out))):,} bytes long, "
-            f"more than the system takes in one path ({path_max:,}), though no name in it is too long")
 
 
 # File attributes (chattr) that forbid replacing a file or adding to a folder: Linux's FS_IOC_GETFLAGS.
@@ -235,7 +260,7 @@ def _unreplaceable(path: Path, what: str) -> str | None:
     for flag, word in ((FS_IMMUTABLE_FL, "immutable (chattr +i)"), (FS_APPEND_FL, "append-only (chattr +a)")):
         if flags & flag:
             verb = "files in it cannot be replaced" if what == "the folder" else "it cannot be replaced"
-            return f"{path} is {word}, so {verb}; lift it with chattr -{'i' if flag == FS_IMMUTABLE_FL else 'a'}" \
+            return f"{_p(path)} is {word}, so {verb}; lift it with chattr -{'i' if flag == FS_IMMUTABLE_FL else 'a'}" \
                    " or choose another output folder"
     return None
 
@@ -247,11 +272,11 @@ def _target_problem(folder: Path, name: str, dir_fd: int | None = None) -> str |
     except FileNotFoundError:
         return None
     if stat.S_ISDIR(target.st_mode):
-        return f"{folder / name} is a folder; move it away or choose another output folder"
+        return f"{_p(folder / name)} is a folder; move it away or choose another output folder"
     here = os.stat(folder if dir_fd is None else dir_fd)
     euid = os.geteuid() if hasattr(os, "geteuid") else 0
     if here.st_mode & stat.S_ISVTX and euid != 0 and euid not in (here.st_uid, target.st_uid):
-        return (f"{folder / name} belongs to another user in a sticky folder (like /tmp), so it cannot be "
+        return (f"{_p(folder / name)} belongs to another user in a sticky folder (like /tmp), so it cannot be "
                 "replaced; choose another output folder")
     if stat.S_ISREG(target.st_mode):
         return _unreplaceable(folder / name, "the file")
@@ -271,16 +296,19 @@ def write_run(folder: Path, files: dict) -> None:
     the order given (put the index, e.g. metrics.json, last). Raises OutputError with one line;
     on failure, folders this call created are removed again and no temporary file is left.
     """
-    folder = Path(folder)
-    names = tuple(files)
+    folder, names = Path(folder), tuple(files)
+    files = {name: data.encode() if isinstance(data, str) else bytes(data) for name, data in files.items()}
     _last_write.update(folder=folder, names=names, state="writing")
     created = []
     try:
+        planted = _planted(folder)  # a link planted after the check is refused too
+        if planted:
+            raise OutputError(f"{planted}; {_kept(folder, names)}", exit_code=2)
         for _ in range(100):  # a folder another run made and removed again (its write failed) is made anew
             try:
                 _make_folders(folder, created)
                 with _locked(folder) as dir_fd:
-                    _replace_together(folder, dir_fd, {name: _as_bytes(data) for name, data in files.items()})
+                    _replace_together(folder, dir_fd, files)
                 break
             except _FolderGone:
                 continue
@@ -291,25 +319,18 @@ def write_run(folder: Path, files: dict) -> None:
         else:
             raise FileNotFoundError(errno.ENOENT, "the folder keeps disappearing")
     except _FolderGone:
-        raise OutputError(f"{folder} keeps disappearing; {_kept(folder, names)}") from None
+        raise OutputError(f"{_p(folder)} keeps disappearing; {_kept(folder, names)}") from None
     except OSError as error:
         raise OutputError(f"{_describe(folder, error)}; {_kept(folder, names)}") from None
     finally:
-        if _last_write["state"] != "written":
-            for path in reversed(created):
-                _remove_if_empty(path)  # only if empty: a concurrent writer's files stay
-
-
-def _remove_if_empty(folder: Path) -> None:
-    """rmdir `folder` while holding its lock, so that a run waiting for it finds it gone (see _locked)."""
-    with contextlib.suppress(OSError, _FolderGone), _locked(folder):
-        os.rmdir(folder)
+        for path in reversed(created if _last_write["state"] != "written" else []):
+            with contextlib.suppress(OSError, _FolderGone), _locked(path):  # under its lock: a run waiting
+                os.rmdir(path)  # for it finds it gone (see _locked); only if empty: another writer's files stay
 
 
 def write_atomic(path: Path, data: bytes | str) -> None:
     """Replace one file atomically and durably (write_run with a single file)."""
-    path = Path(path)
-    write_run(path.parent, {path.name: data})
+    write_run(Path(path).parent, {Path(path).name: data})
 
 
 def read_run(folder: Path, names) -> dict:
@@ -323,14 +344,10 @@ def read_run(folder: Path, names) -> dict:
         return files
 
 
-def _as_bytes(data: bytes | str) -> bytes:
-    return data.encode() if isinstance(data, str) else bytes(data)
-
-
 def _kept(folder: Path, names) -> str:
     if len(names) == 1:
-        return f"{folder / names[0]} was left as it was"
-    return f"{' and '.join(names)} in {folder} were left as they were"
+        return f"{_p(folder / names[0])} was left as it was"
+    return f"{' and '.join(names)} in {_p(folder)} were left as they were"
 
 
 class _FolderGone(Exception):
@@ -388,22 +405,20 @@ def _replace_together(folder: Path, dir_fd: int | None, files: dict) -> None:
     temps = {}
     try:
         for name, data in files.items():
-            with _signals_deferred():  # the name is recorded before anything can interrupt us
+            with signals_held():  # the name is recorded before anything can interrupt us
                 temp = f".{name}.{secrets.token_hex(8)}.tmp"
                 fd = os.open(**_at(folder, dir_fd, temp), flags=os.O_WRONLY | os.O_CREAT | os.O_EXCL | NOFOLLOW,
-                             mode=0o600)
+                             mode=0o666)  # the umask applies, as to any new file
                 temps[name] = temp
             try:
                 _write_all(fd, data)
-                if hasattr(os, "fchmod"):
-                    os.fchmod(fd, 0o666 & ~_umask())  # private while written; the usual mode once complete
                 os.fsync(fd)
             except OSError as error:
-                raise OutputError(f"cannot write {folder / name}: {_says(error)}; "
+                raise OutputError(f"cannot write {_p(folder / name)}: {_says(error)}; "
                                   f"{_kept(folder, list(files))}") from None
             finally:
                 os.close(fd)
-        with _signals_deferred():  # a Ctrl-C here waits until both renames are done
+        with signals_held():  # a Ctrl-C here waits until both renames are done
             for name in files:
                 problem = _target_problem(folder, name, dir_fd)
                 if problem:
@@ -417,19 +432,22 @@ def _replace_together(folder: Path, dir_fd: int | None, files: dict) -> None:
                         raise
                     old = [n for n in files if n not in renamed]
                     raise OutputError(
-                        f"only part of the run was written: {' and '.join(renamed)} in {folder} "
+                        f"only part of the run was written: {' and '.join(renamed)} in {_p(folder)} "
                         f"{'is' if len(renamed) == 1 else 'are'} new, but {name} could not be replaced "
                         f"({_says(error)}), so {' and '.join(old)} {'is' if len(old) == 1 else 'are'} "
                         "from an earlier run") from None
                 renamed.append(name)
             _last_write["state"] = "written"  # before a held Ctrl-C is delivered, so its message is true
             try:
-                _sync_folder(dir_fd)
+                if dir_fd is not None:  # (by path, on Windows, a folder cannot be opened to sync)
+                    os.fsync(dir_fd)  # the renames themselves reach the disk
             except OSError as error:
-                raise OutputError(f"{' and '.join(files)} in {folder} were replaced, but the folder could not be "
+                if error.errno in (errno.EINVAL, errno.EBADF):  # file systems that cannot sync a folder
+                    return
+                raise OutputError(f"{' and '.join(files)} in {_p(folder)} were replaced, but the folder could not be "
                                   f"synced to disk ({_says(error)})") from None
     finally:
-        with _signals_deferred():
+        with signals_held():
             for temp in temps.values():
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(**_at(folder, dir_fd, temp))
@@ -441,31 +459,8 @@ def _write_all(fd: int, data: bytes) -> None:
         view = view[os.write(fd, view[: 1 << 24]):]
 
 
-def _sync_folder(dir_fd: int | None) -> None:
-    if dir_fd is None:
-        return  # by path (Windows): a folder cannot be opened to sync
-    try:
-        os.fsync(dir_fd)  # the renames themselves reach the disk
-    except OSError as error:
-        if error.errno not in (errno.EINVAL, errno.EBADF):  # file systems that cannot sync a folder
-            raise
-
-
-def _umask() -> int:
-    try:
-        with open("/proc/self/status") as status:
-            for line in status:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except OSError:
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
 @contextlib.contextmanager
-def _signals_deferred():
+def signals_held():
     """Hold Ctrl-C and SIGTERM until the block is done, then deliver them.
 
     Blocking the signal mask is not enough: Rerun's threads could receive it. So the handlers are
@@ -509,33 +504,30 @@ def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
                 return _stop(1, f"{prog}: error: standard output is closed, so the report could not be printed;"
                                 " nothing was run")
             _readable_paths()
-            restore = _install_sigterm()
-            code = None
+            restore, code = _install_sigterm(), None
             try:
                 code = main(*args, **kwargs)
                 sys.stdout.flush()  # the report reaches its pipe or file now, where a failure is still ours to say
-                return code
             except OutputError as error:
                 code = _stop(error.exit_code, f"{prog}: error: {error}")
-                return code
-            except OSError as error:
-                if not _printing_failed(error) or memory_problem(error) or signal_in(error):
-                    code = _other(error, prog, memory_hint)
-                    return code
-                _silence_stdout()
-                code = _stop(1, f"{prog}: error: could not print the report ({_says(error)}: stdout closed or full?); "
-                                f"{_what_was_written()}")
-                return code
             except SystemExit as error:  # argparse's exit: bad input (2) or --help (0)
                 code = error.code if isinstance(error.code, int) else 1
                 raise
             except BaseException as error:
-                code = _other(error, prog, memory_hint)
-                return code
+                # Every failure of write_run() is an OutputError: an OSError such as print()'s, on a closed (EPIPE)
+                # or full stream, comes from the one other thing a run writes to, stdout.
+                if getattr(error, "errno", None) not in PRINTING or memory_problem(error) or signal_in(error):
+                    code = _other(error, prog, memory_hint)
+                else:
+                    with contextlib.suppress(OSError, ValueError):  # Python's own flush at exit would fail again
+                        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+                    code = _stop(1, f"{prog}: error: could not print the report ({_says(error)}: stdout closed or"
+                                    f" full?); {_what_was_written()}")
             finally:
                 restore()
                 if interrupts.active():
                     interrupts.finished(_what_was_written(), code)
+            return code
 
         return guarded
 
@@ -554,6 +546,9 @@ def _other(error: BaseException, prog: str, memory_hint: str) -> int:
         return _stop(130, f"interrupted: {_what_was_written()}")
     if number == signal.SIGTERM:
         return _stop(143, f"terminated: {_what_was_written()}")
+    if isinstance(error, OSError) and error.errno in (errno.EMFILE, errno.ENFILE, errno.EAGAIN):
+        return _stop(1, f"{prog}: error: the system refused to open or start more ({_says(error)}): raise the limit"
+                        f" (ulimit -n, ulimit -u) or close other programs; {_what_was_written()}")
     if memory_problem(error):
         loading = next((_library(link) for link in interrupts.chain(error) if isinstance(link, ImportError)), None)
         if loading:  # a library loading late (numpy.random, rerun) under a memory limit: the run's size is not why
@@ -584,8 +579,7 @@ def _what_was_written() -> str:
     folder, names, state = _last_write["folder"], _last_write["names"], _last_write["state"]
     said = "no file was written"
     if state == "written":
-        listed = " and ".join(names)
-        said = f"{listed} in {folder} {'were' if len(names) > 1 else 'was'} written before that"
+        said = f"{' and '.join(names)} in {_p(folder)} {'were' if len(names) > 1 else 'was'} written before that"
     elif state == "writing":
         said = _kept(folder, names)
     return "; ".join([said, *KEPT])
@@ -615,45 +609,22 @@ def _install_sigterm():
 
 def _stop(code: int, message: str) -> int:
     """Print the one line (a second Ctrl-C meanwhile is ignored) and return the exit code."""
-    held = {}
-    if threading.current_thread() is threading.main_thread():
-        held = {number: signal.signal(number, signal.SIG_IGN) for number in STOP_SIGNALS}
-    try:
-        if sys.stderr.isatty():
-            message = "\n" + message  # ends a progress line drawn in place
-        print(message, file=sys.stderr, flush=True)
-    except (OSError, ValueError):
-        pass  # stderr is gone too: the exit code still says it
-    finally:
-        for number, handler in held.items():
-            signal.signal(number, handler)
-    return code
-
-
-def _printing_failed(error: OSError) -> bool:
-    """Whether `error` is what printing to a closed (EPIPE) or full stream raises.
-
-    Every failure of write_run() arrives as an OutputError, so an OSError like this one that
-    reaches main() came from print(): the one other thing a run writes to.
-    """
-    return error.errno in (errno.EPIPE, errno.ENOSPC, errno.EIO, errno.EBADF, errno.EDQUOT, errno.EFBIG)
-
-
-def _silence_stdout() -> None:
-    """Point stdout at /dev/null, so Python's own flush at exit does not print a second error."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        os.close(devnull)
+    main = threading.current_thread() is threading.main_thread()
+    held = {number: signal.signal(number, signal.SIG_IGN) for number in STOP_SIGNALS} if main else {}
+    try:  # a newline first ends a progress line drawn in place
+        print(("\n" if sys.stderr.isatty() else "") + message, file=sys.stderr, flush=True)
     except (OSError, ValueError, AttributeError):
-        pass
+        pass  # stderr is gone too: the exit code still says it
+    for number, handler in held.items():
+        signal.signal(number, handler)
+    return code
 
 
 def recording_problem(path: Path) -> str | None:
     """Why an exercise's recording cannot go to `path`, or None: it must be an .rrd file in a folder we can
     write, so that a slip such as `--rrd README.md` never overwrites something else."""
+    if UNSHOWN.search(str(path)):
+        return f"'{_p(path)}' holds a control character; name the file plainly"
     if path.suffix != ".rrd":
-        return f"{path} does not end in .rrd"
-    if path.exists() and not path.is_file():
-        return f"{path} is not a file"
+        return f"{_p(path)} does not end in .rrd"
     return folder_problem(path.parent, [path.name])

@@ -40,6 +40,7 @@ import textwrap
 from pathlib import Path
 
 from curriculum.common import interrupts, journal
+from curriculum.common.cli import shown
 from curriculum.common.exercise import EXERCISE_FILE, EXERCISES, next_line
 
 # What people call the integrators and the answers, as the chapter, MuJoCo and textbooks write them; keys and
@@ -343,7 +344,7 @@ def _shown(text: str, limit: int = 40, quoted: bool = True) -> str:
     """How a refusal quotes what was typed: spaces run together, and at most `limit` characters of it."""
     text = " ".join(text.split())
     text = text if len(text) <= limit else f"{text[:limit - 3]}..."
-    return repr(text) if quoted else text
+    return repr(text) if quoted else shown(text, None)  # repr escapes; unquoted, shown() does
 
 
 def _spelled(n: int) -> str:

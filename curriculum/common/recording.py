@@ -28,8 +28,8 @@ A recording in a few lines (a time series per name; exercise 7's shape):
   rrb.Horizontal/Vertical/Grid of views) with the panels closed and the cursor on the last step; play
   replays the run in about 20 s.
 - `recorded(application_id, fill, recording_id=None)`: builds the recording in memory, sends the
-  blueprint `fill(stream)` returns, and gives back the bytes; if `fill` is interrupted (Ctrl-C) the
-  stream is still drained, so Rerun has nothing left to flush while the process exits.
+  blueprint `fill(stream)` returns, and gives back the bytes; a Ctrl-C or SIGTERM meanwhile waits
+  until the stream is drained, so Rerun has nothing left to drop (and warn about) while the process exits.
 
 The palette is Okabe and Ito's colour-universal set (Color Universal Design). The four integrators' colours stay more
 than 20 apart in CAM02-UCS from one another and from the viewer's background, for normal vision and for
@@ -97,12 +97,17 @@ def recorded(application_id: str, fill, recording_id: str | None = None) -> byte
     blueprint (from opening()). Nothing touches the disk here: the caller writes the bytes atomically."""
     import rerun as rr
 
-    stream = rr.RecordingStream(application_id, recording_id=recording_id)
-    in_memory = stream.memory_recording()
-    try:
-        stream.send_blueprint(fill(stream), make_active=False, make_default=True)
-    finally:
-        data = in_memory.drain_as_bytes()  # also after a Ctrl-C: Rerun warns about data it has to drop
+    from curriculum.common.outputs import signals_held
+
+    # A Ctrl-C or SIGTERM waits until the bytes are drained (a fraction of a second): a stream dropped with data
+    # in its sink, even between two of these lines, makes Rerun print a WARN line after our one line.
+    with signals_held():
+        stream = rr.RecordingStream(application_id, recording_id=recording_id)
+        in_memory = stream.memory_recording()
+        try:
+            stream.send_blueprint(fill(stream), make_active=False, make_default=True)
+        finally:
+            data = in_memory.drain_as_bytes()
     return data
 
 
@@ -139,13 +144,14 @@ def layered_widths(names, widest: float = 7.0, thinnest: float = 1.5) -> dict:
 
 
 def padded(values, margin: float = 0.05):
-    """(low, high) of the values with a margin, or None (the viewer's own fit) when there are none."""
+    """(low, high) of the values with a margin; (-1.0, 1.0) when none is finite (nothing is drawn: a run too
+    short to move logs the log10 of exact zeros), so a caller can always unpack it."""
     import numpy as np
 
     values = np.concatenate([np.ravel(v) for v in values]) if isinstance(values, list | tuple) else np.ravel(values)
     values = values[np.isfinite(values)]
     if values.size == 0:
-        return None
+        return (-1.0, 1.0)
     low, high = float(values.min()), float(values.max())
     pad = margin * ((high - low) or 1.0)
     return (low - pad, high + pad)

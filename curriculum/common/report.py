@@ -20,8 +20,8 @@ def rounded(value):
         return [rounded(item) for item in value]
     if isinstance(value, float) and not math.isfinite(value):
         return None  # strict JSON has no NaN or inf: a figure that overflowed is null, as a diverged one is
-    if isinstance(value, float):
-        return round(value, 12) + 0.0  # + 0.0: a tiny negative drift rounds to -0.0, and the file says 0.0
+    if isinstance(value, float):  # float(): numpy's round of a float64 overflows from 1.8e296 (x 1e12)
+        return round(float(value), 12) + 0.0  # + 0.0: a tiny negative drift rounds to -0.0, and the file says 0.0
     return value
 
 

@@ -9,19 +9,24 @@ The file runs in a child Python in isolated mode (-I), its folder on sys.path af
 so a scratch `threading.py` beside it cannot replace Python's own. The child imports the chapter's
 collector first, then the student's file, then hands each task to collector.collect(module, task) and
 sends the answers back as JSON lines on a pipe of its own; the student's prints go to another pipe, of
-which a bounded amount is kept. The child runs in its own process group and a scratch folder (its working
-directory and TMPDIR); on every path (normal end, failure, time limit, Ctrl-C, SIGTERM) the whole group
-is killed and the folder removed. A task that never ends costs its group: the other groups' tasks run
-again in a fresh child, so one endless loop does not hide the verdict on another function.
+which a bounded amount is kept. Start-up, the import and the tasks each get the time limit. The child
+runs in a scratch folder (its working directory and TMPDIR) under a keeper, a process of ours that runs
+none of the student's code, is the subreaper of all the child starts (Linux), and holds our pipe: on
+every way the checker ends (normal end, time limit, Ctrl-C, SIGTERM, SIGHUP, SIGQUIT, SIGKILL) the pipe
+closes, and the keeper kills every one of those processes and removes the folder. A task that never ends
+costs its group: the other groups' tasks run again in a fresh child, so one endless loop does not hide
+the verdict on another function.
 """
 
 import argparse
 import ast
 import contextlib
+import ctypes
 import importlib
 import importlib.util
 import json
 import os
+import select
 import shutil
 import signal
 import stat
@@ -36,13 +41,22 @@ import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from curriculum.common.cli import shown
+from curriculum.common.interrupts import say
+from curriculum.common.outputs import OutputError, one_line_failures
+
 REPO = Path(__file__).resolve().parents[2]
 MAX_SOURCE_BYTES = 1_000_000  # a file of a few functions is a few kB; past this it is not the student's file
 KEPT_OUTPUT_BYTES = 4096  # of what the student's code prints: enough to show, bounded whatever it does
 MAX_ANSWER_BYTES = 64_000_000  # what the child may send back; past this the run counts as malformed
-EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
+STOPS = {signal.SIGINT: ("interrupted", 130), signal.SIGTERM: ("terminated", 143), signal.SIGHUP: ("hung up", 129),
+         signal.SIGQUIT: ("quit", 131)}  # the signals that end the checker in one line, and how
 DONE = b'{"done": true}\n'  # the child's last answer
-_active = {}  # the running child's pid and scratch folder, for the signal handler
+PHASES = (b'{"stage": "import"}', b'{"stage": "tasks"}')  # each starts the time limit afresh
+KEEPER = f"import sys; sys.path.append({str(REPO)!r}); from curriculum.common.student_code import _keeper;" \
+         " _keeper(int(sys.argv[1]))"
+PR_SET_PDEATHSIG, PR_SET_CHILD_SUBREAPER = 1, 36  # Linux's prctl(2) options
+_active = {}  # the running keeper, for the signal handler
 
 
 # --- before anything runs: a regular, readable, compiling Python file ---
@@ -51,42 +65,43 @@ _active = {}  # the running child's pid and scratch folder, for the signal handl
 def source_problem(path: Path) -> tuple[int, str] | None:
     """(exit code, sentence) if `path` cannot be checked: 2 if it is not a Python source file, 1 if it does
     not compile (the sentence then ends with the line and a caret). None if it can. Runs none of its code."""
+    where, name = shown(path, 100), shown(path.name, 60)  # as the sentences show them
     try:
         info = path.stat()
     except FileNotFoundError:
-        return 2, f"there is no file {path}"
+        return 2, f"there is no file {where}"
     except OSError as error:
-        return 2, f"cannot read {path}: {error.strerror}"
+        return 2, f"cannot read {where}: {error.strerror}"
     if stat.S_ISDIR(info.st_mode):
-        return 2, f"{path} is a folder; give the .py file itself"
+        return 2, f"{where} is a folder; give the .py file itself"
     if not stat.S_ISREG(info.st_mode):  # a FIFO or a device: opening or reading it could block forever
-        return 2, f"{path} is not a regular file (it is a pipe or a device); give the .py file itself"
+        return 2, f"{where} is not a regular file (it is a pipe or a device); give the .py file itself"
     if path.suffix != ".py":
         if path.suffix.lower() == ".py":
-            return 2, f"{path.name} ends in {path.suffix}: Python imports only files ending in .py: rename it"
-        return 2, f"{path.name} is not a Python file: the checker imports it, so it must end in .py"
+            return 2, f"{name} ends in {shown(path.suffix)}: Python imports only files ending in .py: rename it"
+        return 2, f"{name} is not a Python file: the checker imports it, so it must end in .py"
     if info.st_size > MAX_SOURCE_BYTES:
-        return 2, (f"{path} is {info.st_size / 1e6:,.0f} MB; a file of a few functions is a few kB. Is it the"
+        return 2, (f"{where} is {info.st_size / 1e6:,.0f} MB; a file of a few functions is a few kB. Is it the"
                    " right file?")
     try:
         with open(path, "rb") as file:
             data = file.read(MAX_SOURCE_BYTES + 1)
     except OSError as error:
-        return 2, f"cannot read {path}: {error.strerror}"
+        return 2, f"cannot read {where}: {error.strerror}"
     if b"\0" in data:
         line = data[: data.index(b"\0")].count(b"\n") + 1
-        return 1, (f"{path}, line {line}: the file contains a null byte (\\0), which Python source cannot hold;"
+        return 1, (f"{where}, line {line}: the file contains a null byte (\\0), which Python source cannot hold;"
                    " it was probably saved by a word processor. Save it as plain text.")
     try:
         try:
             encoding = tokenize.detect_encoding(iter(data.splitlines(keepends=True)).__next__)[0]
         except SyntaxError as error:  # not UTF-8 in the first two lines, or a bad `coding:` comment
             data.decode("utf-8")  # raises UnicodeDecodeError with the position if that is the problem
-            return 1, f"{path}: {error.msg}"
+            return 1, f"{where}: {shown(error.msg, None)}"
         source = data.decode(encoding)
     except UnicodeDecodeError as error:
         line = data[: error.start].count(b"\n") + 1
-        return 1, (f"{path}, line {line}: this line is not valid text (byte {data[error.start]:#04x});"
+        return 1, (f"{where}, line {line}: this line is not valid text (byte {data[error.start]:#04x});"
                    " save the file as UTF-8.")
     try:
         compile(source, str(path), "exec", dont_inherit=True)
@@ -94,10 +109,10 @@ def source_problem(path: Path) -> tuple[int, str] | None:
         why = {"TabError": " Indent with spaces only; most editors can turn tabs into spaces.",
                "IndentationError": " The lines of one block must start in the same column."}
         kind, text = type(error).__name__, (source.splitlines() or [""])[max(0, (error.lineno or 1) - 1)]
-        shown = f"    {text.strip()}"
+        quoted = f"    {shown(text.strip(), None)}"
         if error.offset and text.strip() and kind == "SyntaxError":
-            shown += "\n    " + " " * max(0, error.offset - 1 - (len(text) - len(text.lstrip()))) + "^"
-        return 1, f"{path}, line {error.lineno}: {kind}: {error.msg}.{why.get(kind, '')}\n{shown}"
+            quoted += "\n    " + " " * max(0, error.offset - 1 - (len(text) - len(text.lstrip()))) + "^"
+        return 1, f"{where}, line {error.lineno}: {kind}: {shown(error.msg, None)}.{why.get(kind, '')}\n{quoted}"
     return None
 
 
@@ -147,7 +162,7 @@ def as_arrays(result, names: tuple, shape: tuple, np) -> tuple:
     return tuple(arrays)
 
 
-# --- the parent: start the child, keep what it says, stop it on every path ---
+# --- the parent: start the keeper, keep what the child says, end them on every path ---
 
 
 @dataclass
@@ -159,10 +174,6 @@ class Run:
     printed: bytes = b""  # the first KEPT_OUTPUT_BYTES of what the student's code printed
     printed_bytes: int = 0
     malformed: str | None = None  # what was wrong with the child's answers, if they could not be read
-
-
-class ScratchProblem(Exception):
-    """The temp folder cannot hold the child's scratch folder (full, or not writable)."""
 
 
 def collect(path: Path, collector: str, tasks: list, prog: str, time_limit: float = 20.0) -> Run:
@@ -186,52 +197,50 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
     try:
         scratch = tempfile.mkdtemp(prefix="student-code-")
     except OSError as error:
-        raise ScratchProblem(f"the checker cannot make its scratch folder in {tempfile.gettempdir()}"
-                             f" ({error.strerror}); free some space there, or set TMPDIR to another folder") from None
+        raise OutputError(f"the checker cannot make its scratch folder in {shown(tempfile.gettempdir(), 100)}"
+                          f" ({error.strerror}); free some space there, or set TMPDIR to another folder", 2) from None
     answers_read, answers_write = os.pipe()
-    job = json.dumps({"file": str(path.resolve()), "collector": collector, "repo": str(REPO),
+    job = json.dumps({"file": str(path.resolve()), "collector": collector, "scratch": scratch,
                       "tasks": {i: tasks[i] for i in pending}})
-    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, EXIT_CODES)  # until _active knows the child
-    try:
-        child = subprocess.Popen([sys.executable, "-I", "-B", __file__, str(answers_write)], cwd=scratch,
-                                 env={**os.environ, "TMPDIR": scratch}, stdin=subprocess.PIPE,
-                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, pass_fds=(answers_write,),
-                                 start_new_session=True)
-        _active.update(pid=child.pid, scratch=scratch)
+    try:  # (a signal before _active knows the keeper ends us, which closes its pipe: it cleans up alone)
+        keeper = _active["keeper"] = subprocess.Popen(
+            [sys.executable, "-I", "-B", "-c", KEEPER, str(answers_write)], cwd=scratch,
+            env={**os.environ, "TMPDIR": scratch}, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT, pass_fds=(answers_write,), start_new_session=True)
     except OSError:
         shutil.rmtree(scratch, ignore_errors=True)
         raise
     finally:
         os.close(answers_write)
-        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
     printed, answers = bytearray(), bytearray()
-    readers = [threading.Thread(target=_drain, args=(child.stdout.fileno(), printed, KEPT_OUTPUT_BYTES, run),
+    readers = [threading.Thread(target=_drain, args=(keeper.stdout.fileno(), printed, KEPT_OUTPUT_BYTES, run),
                                 daemon=True),
                threading.Thread(target=_drain, args=(answers_read, answers, MAX_ANSWER_BYTES, None), daemon=True)]
     try:
         for reader in readers:
             reader.start()
-        try:
-            child.stdin.write(job.encode())
-            child.stdin.close()
-        except OSError:  # the child is already gone: what it left says why
-            pass
-        deadline, ended = time.monotonic() + time_limit, False
+        with contextlib.suppress(OSError):  # the keeper is already gone: what it left says why
+            keeper.stdin.write(job.encode() + b"\n")
+            keeper.stdin.flush()  # and the pipe stays open: its closing tells the keeper to end it all
+        deadline, phase, ended = time.monotonic() + time_limit, 0, False
         while not ended and time.monotonic() < deadline:
-            ended = _exited(child) or answers.endswith(DONE)  # its threads may outlive its last answer
+            if phase < len(PHASES) and PHASES[phase] in answers:  # the import, then the tasks: time afresh
+                phase, deadline = phase + 1, time.monotonic() + time_limit
+            ended = (answers.endswith(DONE) or b'{"exited": ' in answers[-32:]  # its threads may outlive DONE
+                     or keeper.poll() is not None)
             time.sleep(0.01 if not ended else 0)
     finally:
-        _kill_group(child.pid)  # before the child is reaped: its group id cannot have been reused yet
-        _active.pop("pid", None)
-        child.wait()
+        with contextlib.suppress(OSError):
+            keeper.stdin.close()  # the keeper ends every process of the student's and removes the scratch folder
+        keeper.wait()
+        _active.clear()
         for reader in readers:
-            reader.join(timeout=1.0)  # EOF once the group is gone; a setsid'd grandchild cannot hold us
+            reader.join(timeout=1.0)  # EOF once they are gone; a process that escaped the keeper cannot hold us
         os.close(answers_read)
-        child.stdout.close()
-        shutil.rmtree(scratch, ignore_errors=True)
-        _active.pop("scratch", None)
+        keeper.stdout.close()
+        shutil.rmtree(scratch, ignore_errors=True)  # (the keeper's job; this is for a keeper that never started)
     run.printed = run.printed or bytes(printed)  # a second child (after a stuck task) prints the same start again
-    return _read_answers(bytes(answers), run, pending, ended, child.returncode)
+    return _read_answers(bytes(answers), run, pending, ended)
 
 
 def _drain(fd: int, kept: bytearray, limit: int, run: Run | None) -> None:
@@ -246,9 +255,9 @@ def _drain(fd: int, kept: bytearray, limit: int, run: Run | None) -> None:
                 return
 
 
-def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: int) -> int | None:
+def _read_answers(answers: bytes, run: Run, pending: list, ended: bool) -> int | None:
     """Fill `run` from the child's JSON lines. Returns the task it stopped in, if it did not finish."""
-    stage = None
+    stage, code = None, None
     try:
         for line in answers.decode().splitlines():
             message = json.loads(line)
@@ -260,55 +269,46 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
                 run.imported = dict(message["import"])
             elif "clashes" in message:
                 run.clashes = [(str(a), str(b)) for a, b in message["clashes"]]
+            elif "exited" in message:  # the keeper's word: the child ended by itself, with this exit code
+                code = int(message["exited"])
             elif "done" not in message:
                 raise ValueError("an answer the checker never asks for")
     except (ValueError, TypeError, KeyError, UnicodeDecodeError) as error:  # a forgery, or a cut-off line
-        run.malformed = f"what it sent back could not be read ({type(error).__name__}: {str(error)[:80]})"
+        run.malformed = f"what it sent back could not be read ({type(error).__name__}: {shown(error, 80)})"
         return None
+    why = "time limit" if not ended else f"exit code {code}"
     if stage is None or stage == "import" and run.imported is None:
         if ended and stage is None:
-            run.malformed = f"Python stopped before your file was even imported (exit code {code})"
+            run.malformed = f"Python stopped before your file was even imported ({why})"
         else:
-            run.imported = {"stopped": "time limit" if not ended else f"exit code {code}"}
+            run.imported = {"stopped": why}
         return None
     missing = [i for i in pending if i not in run.results]
     if missing:  # stopped in a task (time limit, os._exit, a crash): that task is the one to blame
         stuck = stage if stage in missing else missing[0]
-        run.stopped[stuck] = "time limit" if not ended else f"exit code {code}"
+        run.stopped[stuck] = why
         return stuck
     return None
 
 
-def _exited(child) -> bool:
-    if hasattr(os, "waitid"):  # look without reaping: the group id stays the child's until _kill_group
-        return os.waitid(os.P_PID, child.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT) is not None
-    return child.poll() is not None  # macOS before Python 3.13 has no waitid; the group is killed at once
-
-
-def _kill_group(pid: int) -> None:
-    with contextlib.suppress(ProcessLookupError, PermissionError):
-        os.killpg(pid, signal.SIGKILL)
-
-
 @contextlib.contextmanager
 def stopping_cleanly(prog: str):
-    """Inside: Ctrl-C and SIGTERM kill the running child's group, remove its scratch folder, print one line and
-    exit 130 or 143. The handlers from before (guard()'s, pytest's) are back afterwards."""
-    previous = {number: signal.getsignal(number) for number in EXIT_CODES}
+    """Inside: Ctrl-C, SIGTERM, SIGHUP (the terminal closed) and SIGQUIT close the keeper's pipe, wait for it to
+    end it all, print one line and exit 130, 143, 129 or 131. The handlers from before are back afterwards."""
+    previous = {number: signal.getsignal(number) for number in STOPS}
 
     def stop(number, frame):
-        pid, scratch = _active.get("pid"), _active.get("scratch")
-        if pid:
-            _kill_group(pid)
-        if scratch:
-            shutil.rmtree(scratch, ignore_errors=True)
-        what = "interrupted" if number == signal.SIGINT else "terminated"
-        done = ": your file's run was stopped and its scratch folder removed" if pid or scratch else ""
-        with contextlib.suppress(OSError):
-            os.write(2, f"{prog}: {what}{done}\n".encode())
-        os._exit(EXIT_CODES[number])
+        keeper = _active.get("keeper")
+        if keeper:
+            with contextlib.suppress(OSError, ValueError):
+                os.close(keeper.stdin.fileno())
+            with contextlib.suppress(OSError):
+                os.waitpid(keeper.pid, 0)  # it has ended the student's processes and removed the scratch folder
+        what, code = STOPS[number]
+        say(f"{prog}: {what}" + (": your file's run was stopped and its scratch folder removed" if keeper else ""))
+        os._exit(code)
 
-    for number in EXIT_CODES:
+    for number in STOPS:
         if previous[number] is not signal.SIG_IGN:  # nohup and friends ignore on purpose
             signal.signal(number, stop)
     try:
@@ -343,7 +343,7 @@ def gaps(mine, theirs):
 
 def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str | None:
     """The sentence for tasks `indices` of one function if they ended without an answer, else None.
-    where(i) says what task i is doing ("during a whole run on ..."), long(i) if it takes many calls."""
+    where(i) says what task i is doing ("during a whole run on ...")."""
     if run.malformed:
         return f"your file's run did not finish: {run.malformed}."
     if run.imported and "error" in run.imported:
@@ -375,7 +375,7 @@ def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str |
         if result.get("problem") == "missing":
             return "not found in your file. Keep the function names as they are."
         if "problem" in result:
-            return f"your function {result['problem']}."
+            return f"your function {shown(result['problem'], 300)}."
     return None
 
 
@@ -384,22 +384,23 @@ def print_notes(run: Run) -> None:
     if run.printed_bytes:
         lines = run.printed.decode("utf-8", "replace").splitlines()[:8]
         print(f"Your code printed {run.printed_bytes:,} bytes while it was checked; the start:")
-        print("\n".join(f"  | {line[:200]}" for line in lines) + "\n")
+        print("\n".join(f"  | {shown(line, 200)}" for line in lines) + "\n")
     if run.clashes:
         print(textwrap.fill(clash_sentence(run.clashes), width=100) + "\n")
 
 
 def error_sentence(error: dict) -> str:
     """'raised ZeroDivisionError: float division by zero in rk4_step(), line 31 of mine.py: k2 = ...'."""
-    what = f"{error['type']}: {error['message']}" if error["message"] else error["type"]
+    what = shown(f"{error['type']}: {error['message']}" if error["message"] else error["type"], 300)
     if "line" not in error:
         return f"raised {what} (inside Python or numpy, called from your code)"
-    return f"raised {what} in {error['function']}(), line {error['line']} of {error['file']}: {error['code']}"
+    return (f"raised {what} in {shown(error['function'])}(), line {error['line']} of {shown(error['file'], 60)}:"
+            f" {shown(error['code'], 200)}")
 
 
 def clash_sentence(clashes: list) -> str:
-    return " ".join(f"{file} beside your file has the name of {module}, which Python imports first; `import"
-                    f" {Path(file).stem}` gets that one, never yours. Rename yours." for file, module in clashes)
+    return " ".join(f"{shown(file)} beside your file has the name of {module}, which Python imports first; `import"
+                    f" {shown(Path(file).stem)}` gets that one, never yours. Rename yours." for file, module in clashes)
 
 
 # --- the command of a chapter's checker ---
@@ -407,46 +408,80 @@ def clash_sentence(clashes: list) -> str:
 
 def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int:
     """`prog [FILE]`: check(path) -> ({function: solved}, messages, run) for a file that compiles; 0 solved, 1 not,
-    2 unusable. Each check goes to the journal (journal.checked), and the run ends with its "Next:" line."""
+    2 unusable. Each check goes to the journal (journal.checked), and the run ends with its "Next:" line. A closed
+    or full stdout, a signal or a refused resource is one line (curriculum.common.outputs)."""
+    return one_line_failures(prog)(_main)(prog, doc, default, what, check, argv)
+
+
+def _main(prog: str, doc: str, default: Path, what: str, check, argv) -> int:
     from curriculum.common.cli import OneLineParser
     from curriculum.common.journal import checked
     from curriculum.common.predict import explain
 
     parser = OneLineParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    shown = f"{default.parent.name}/{default.name}"
-    parser.add_argument("file", nargs="?", type=Path, default=default, help=f"{what} (default: {shown})")
+    parser.add_argument("file", nargs="?", type=Path, default=default,
+                        help=f"{what} (default: {default.parent.name}/{default.name})")
     args = parser.parse_args(argv)
     problem = source_problem(args.file)
     if problem and problem[0] == 2:
         parser.exit(2, f"{prog}: error: {problem[1]}\n")
-    try:
-        if problem:  # does not compile: the sentence, then the line as it is in the file
-            sentence, _, code = problem[1].partition("\n")
-            explain(sentence)
-            print(code + "\n\nNot solved yet: fix that line, and run the checker again.")
-            checked(default, args.file, {})
-            return 1
-        try:
-            parts, messages, run = check(args.file)
-        except ScratchProblem as error:
-            parser.exit(2, f"{prog}: error: {error}\n")
-        print_notes(run)
-        explain(*messages)
-        solved = all(parts.values())
-        print("\nAll solved." if solved else "\nNot solved yet: read the messages above, edit, and run it again.")
-        checked(default, args.file, parts)
-        return 0 if solved else 1
-    except BrokenPipeError:  # piped into `head`, which stopped reading: not an error worth a traceback
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    if problem:  # does not compile: the sentence, then the line as it is in the file
+        sentence, _, code = problem[1].partition("\n")
+        explain(sentence)
+        print(code + "\n\nNot solved yet: fix that line, and run the checker again.")
+        checked(default, args.file, {})
         return 1
+    parts, messages, run = check(args.file)
+    print_notes(run)
+    explain(*messages)
+    solved = all(parts.values())
+    print("\nAll solved." if solved else "\nNot solved yet: read the messages above, edit, and run it again.")
+    checked(default, args.file, parts)
+    return 0 if solved else 1
 
 
-# --- the child: runs as `python -I -B student_code.py FD`, the job on stdin ---
+# --- the keeper and the child, run as `python -I -B -c KEEPER FD`, the job on stdin ---
 
 
-def _child(answers_fd: int) -> None:
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, EXIT_CODES)
-    job = json.loads(sys.stdin.read())
+def _keeper(answers_fd: int) -> None:
+    """Fork the child that runs the student's file, say on the answers pipe when it ends by itself, and when the
+    checker closes our stdin (or dies: that closes it too), kill the child and every process it started
+    (orphaned, they come to us: the subreaper), round after round, then remove the scratch folder."""
+    prctl = getattr(ctypes.CDLL(None), "prctl", lambda *args: -1)  # Linux's prctl(2); elsewhere, the watch on stdin
+    prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+    job, keeper = json.loads(sys.stdin.buffer.readline()), os.getpid()
+    child = os.fork()
+    if child == 0:
+        prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)  # the child ends with the keeper, however the keeper ends
+        try:
+            if os.getppid() == keeper:
+                _child(job, answers_fd)
+            sys.stdout.flush()
+        except BaseException:  # noqa: BLE001 (our own code failed: its traceback reaches the checker as output)
+            traceback.print_exc()
+        os._exit(0)
+    ended = False
+    while not select.select([0], [], [], 0.05)[0]:  # until the checker closes our stdin, or is gone
+        pid, status = (0, 0) if ended else os.waitpid(child, os.WNOHANG)
+        if pid:
+            ended = True
+            os.write(answers_fd, f'{{"exited": {os.waitstatus_to_exitcode(status)}}}\n'.encode())
+    with contextlib.suppress(OSError):
+        os.killpg(child, signal.SIGKILL)  # its group: all there is to end where there is no subreaper
+    for _ in range(1000):  # orphaned, what it started comes to us: kill our children round by round, till none
+        with contextlib.suppress(OSError), open(f"/proc/self/task/{keeper}/children") as listed:
+            for pid in listed.read().split():
+                os.kill(int(pid), signal.SIGKILL)
+        try:
+            if os.waitpid(-1, os.WNOHANG) == (0, 0):
+                time.sleep(0.005)
+        except ChildProcessError:
+            break  # no child left
+    shutil.rmtree(job["scratch"], ignore_errors=True)
+
+
+def _child(job: dict, answers_fd: int) -> None:
+    os.setpgid(0, 0)
     os.dup2(os.open(os.devnull, os.O_RDONLY), 0)  # input() in the student's code ends, it does not wait
     answers = os.fdopen(answers_fd, "w", buffering=1)
 
@@ -454,7 +489,7 @@ def _child(answers_fd: int) -> None:
         answers.write(json.dumps(message) + "\n")
 
     student = Path(job["file"])
-    sys.path += [job["repo"], str(student.parent)]  # after the standard library and site-packages
+    sys.path.append(str(student.parent))  # after the standard library and site-packages
     collector = importlib.import_module(job["collector"])
     course = {os.path.realpath(m.__file__) for m in list(sys.modules.values()) if getattr(m, "__file__", None)}
     send({"clashes": _clashes(student, course)})
@@ -466,6 +501,7 @@ def _child(answers_fd: int) -> None:
     except BaseException as error:  # noqa: BLE001 (SystemExit too: reported, not obeyed)
         send({"import": {"error": _described(error, student, course)}})
         return
+    send({"stage": "tasks"})
     for index, task in job["tasks"].items():
         send({"stage": int(index)})
         try:
@@ -508,6 +544,3 @@ def _described(error: BaseException, student: Path, course: set) -> dict:
                          function=where.name)
     return described
 
-
-if __name__ == "__main__":
-    _child(int(sys.argv[1]))

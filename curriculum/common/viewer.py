@@ -1,7 +1,9 @@
 """Whether Rerun, the course's viewer and recording format, can be loaded on this machine: asked before a
 run that records spends any time, so that a broken install is one line and not a traceback at the end."""
 
+from curriculum.common.cli import recording_wanted
 from curriculum.common.interrupts import memory_problem, signal_in
+from curriculum.common.outputs import recording_problem
 
 
 def rerun_problem() -> str | None:
@@ -20,3 +22,14 @@ def rerun_problem() -> str | None:
         return f"rerun-sdk is installed but does not import ({why}); reinstall it (`pip install -e .`) or pass" \
                " --no-rerun"
     return None
+
+
+def recording_refused(prog: str, args) -> str | None:
+    """An exercise's check of its --no-rerun and --rrd before any work (predict.ask's `check`): under RERUN=off it
+    records nothing (said in one line; args.rerun turns False); a path the recording cannot go to, or a rerun-sdk
+    that does not load, is the one line it is refused with."""
+    args.rerun = recording_wanted(prog, args.rerun)
+    problem = args.rerun and recording_problem(args.rrd)
+    if problem:
+        return f"--rrd: {problem} (or pass --no-rerun)"
+    return (args.rerun and rerun_problem()) or None

@@ -63,7 +63,8 @@ def exact_position(name: str, q0, v0, t: float) -> np.ndarray:
 
 def collect(steps, task: dict) -> dict:
     """Run one task with steps.<task["function"]>: single steps from fresh states ("probes"), or one whole
-    run, each step fed its own output. Returns plain lists, which travel as JSON."""
+    run, each step fed exactly what the one before returned (lists stay lists, as in engine.simulate).
+    Returns plain lists, which travel as JSON."""
     step = getattr(steps, task["function"], None)
     if not callable(step):
         return {"problem": "missing" if step is None else f"not a function: it is a {type(step).__name__}"}
@@ -95,11 +96,18 @@ def collect(steps, task: dict) -> dict:
         q, v = np.array(task["q0"]), np.array(task["v0"])
         m, force, rows, reused = mass(task["system"]), force_of(task["system"]), [q.tolist() + v.tolist()], None
         for k in range(1, task["steps"] + 1):
-            q_next, v_next = as_arrays(step(q, v, m, force, task["dt"]), STATE, (3,), np)
+            try:
+                returned = step(q, v, m, force, task["dt"])
+            except Exception as error:
+                if isinstance(q, np.ndarray):
+                    raise
+                raise NotOutputs(f"returns a {type(q).__name__}, not a numpy array; a whole run hands each step what"
+                                 f" the one before returned, then it raised {type(error).__name__}: {error}") from None
+            q_next, v_next = as_arrays(returned, STATE, (3,), np)
             if reused is None and any(np.shares_memory(a, b) for a in (q_next, v_next) for b in (q, v)):
                 reused = k
             rows.append(q_next.tolist() + v_next.tolist())
-            q, v = q_next, v_next
+            q, v = returned
         return {"rows": rows, "reused": reused}
     except NotOutputs as problem:
         return {"problem": str(problem)}

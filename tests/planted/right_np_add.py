@@ -1,4 +1,4 @@
-"""Right, written another way: np.add and np.multiply, returning lists."""
+"""Right, written another way: np.add and np.multiply, semi-implicit Euler returning its pair as a list."""
 
 import numpy as np
 
@@ -18,4 +18,4 @@ def rk4_step(q, v, m, force, dt):
     k4q, k4v = deriv(np.add(q, dt * k3q), np.add(v, dt * k3v))
     q_next = np.add(q, dt / 6 * np.add(np.add(k1q, 2 * k2q), np.add(2 * k3q, k4q)))
     v_next = np.add(v, dt / 6 * np.add(np.add(k1v, 2 * k2v), np.add(2 * k3v, k4v)))
-    return list(q_next), tuple(v_next)
+    return q_next, v_next

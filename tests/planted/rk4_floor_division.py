@@ -1,0 +1,11 @@
+"""Planted mistake: the blend's sixth taken with floor division, dt // 6, which is 0 for any dt under 6."""
+
+from _right import semi_implicit_step  # noqa: F401  (the right one, from the helper beside this file)
+
+
+def rk4_step(q, v, m, force, dt):
+    k1q, k1v = v, force(q, v) / m
+    k2q, k2v = v + k1v * (dt / 2), force(q + k1q * (dt / 2), v + k1v * (dt / 2)) / m
+    k3q, k3v = v + k2v * (dt / 2), force(q + k2q * (dt / 2), v + k2v * (dt / 2)) / m
+    k4q, k4v = v + k3v * dt, force(q + k3q * dt, v + k3v * dt) / m
+    return q + dt // 6 * (k1q + 2 * k2q + 2 * k3q + k4q), v + dt // 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
