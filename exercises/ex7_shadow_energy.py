@@ -9,7 +9,7 @@ any force F = -grad V, is a nearby energy
     E~ = E - (dt/2) v . grad V(q) = E + (dt/2) v . F(q)
 
 The program runs the chapter's three systems (seed 0, 2000 steps of dt 0.01) under semi-implicit Euler,
-measures how far E and E~ each move from where they started; --more runs the orbit again at smaller steps
+measures how far E and E~ each move from where they started; --more runs the orbit again with dt halved
 and tries the same E~ on explicit Euler and RK4. Then it writes a recording of both errors on the step
 timeline (outputs/ch3.3-engine/ex7_shadow.rrd; --no-rerun skips it, --rrd PATH puts it elsewhere).
 """
