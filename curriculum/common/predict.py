@@ -246,6 +246,12 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, vari
 _asked = {}  # what ask() asked, returned and recorded, for verdict() and explain()
 
 
+def asked() -> dict:
+    """What the last ask() asked: {"question": text, "answers": OneOf, Number, PerName or SomeOf, ...}. A bare
+    run asks and exits, so tests/test_docs.py reads each exercise's own answer form here."""
+    return dict(_asked)
+
+
 def show_question(run: str, question: str, answers, number: int, asked: str) -> None:
     """A bare run: the question, then how to commit; or, once committed, what and when (no figure either way)."""
     print(question)
