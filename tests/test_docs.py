@@ -156,7 +156,7 @@ def claims(truth, answers, question: str):
                 words = words_of(sentence)
                 named = {w[2] for w in where(words, names.find)}
                 return name in named and named != set(names.names) and \
-                    len({stem(w) for w in words} & keys) >= min(2, len(keys))
+                    len({stem(w) for w in words} & keys) >= min(3, len(keys))
             yield name, said
     else:
         unit, forms = getattr(answers, "unit", "") or "\0", number_forms(truth)
