@@ -183,6 +183,16 @@ def test_divergence_step_is_the_first_non_finite_energy():
     assert d["diverged"] and d["diverged_at_step"] == 3
 
 
+def test_a_blow_up_is_dated_where_the_energy_overflowed():
+    """energy_drift's docstring: exercise 6's semi-implicit Euler (b = 250) overflows its energy at step 886, its
+    state only at 1,748 (the energy squares the speed), and diverged_at_step is the energy's step."""
+    system = engine.build_system("damped_spring", np.random.default_rng(0), 250.0)
+    positions, velocities, energies = engine.simulate(engine.semi_implicit_step, system, 0.01, 2000)
+    state_finite = np.isfinite(positions).all(axis=-1) & np.isfinite(velocities).all(axis=-1)
+    assert engine.energy_drift(energies)["diverged_at_step"] == np.argmin(np.isfinite(energies)) == 886
+    assert np.argmin(state_finite) == 1748
+
+
 @pytest.mark.parametrize("system", list(engine.SYSTEMS))
 @pytest.mark.parametrize("dt", ["0.5", "2", "1e30", "1e300"])
 def test_absurd_timesteps_run_quietly_and_write_strict_json(system, dt, tmp_path, capsys):
