@@ -332,6 +332,19 @@ def test_readme_shows_the_measurement_then_asks_exercise_1_then_interprets():
     assert any(re.search(pattern, readme[interpretation:], flags=re.I) for pattern in giveaways()[1])  # still told
 
 
+def test_exercise_1_explains_what_readme_says_it_measures():
+    """README's "What exercise 1 measures" moves into exercise 1's --more (issue 25): each of its facts is there,
+    as exercise 1 prints it (ANSWERS.md pastes the run; the slow test reruns it)."""
+    told = " ".join(explanations()[1].split())
+    for fact in ["+22.1% after the chapter's run, +62.5% after 16x, its worst excursion always the last step",
+                 "never once below E0", "the orbit spirals out",
+                 "from -2.198e-04 to +3.203e-04 after the chapter's run, which ends at +9.826e-05: its worst excursion"
+                 " is bigger than where it ends",
+                 "1.0000003 times as wide", "5.13e-11 of the energy, 6.2e+06 times below the top of semi-implicit",
+                 "14.0 times as wide for 16 times the run", "412 of the 1,000 are above E0 at some step (1,000 end"]:
+        assert fact in told, fact
+
+
 def test_the_spoiler_patterns_catch_the_old_leaks():
     """The texts that leaked before this test existed (issues 7 and 25) must be caught, or the test proves nothing."""
     old = {1: ["python -m exercises.ex1_band --predict euler=grows,semi_implicit=stays,rk4=grows",

@@ -47,6 +47,13 @@ def test_no_prediction_no_figures(module, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_more_goes_with_a_prediction(tmp_path):
+    """--more asks for the whole explanation of a measurement: without --predict there is none to give."""
+    result = run_exercise("ex1_band", "--more", cwd=tmp_path)
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr == "exercises.ex1_band: error: --more goes with --predict: commit to a prediction too\n"
+
+
 @pytest.mark.parametrize("module, bad, forms", [
     ("ex1_band", "euler=grows", "name=word for each of euler, semi_implicit, rk4"),
     ("ex1_band", "euler=grows, semi_implicit=shrinks, rk4=grows", "one of grows, stays"),
