@@ -73,19 +73,33 @@ def integrators_for(system: dict) -> dict:
 
 def check_contract(system: dict, q, v) -> None:
     """Fail at once, with a sentence, if a system breaks the batch contract (engine.py states it): q and v
-    (3,) or (N, 3), force(q, v) of q's shape, energy(q, v) one number per body. Tried on at most 3 bodies."""
+    (3,) or (N, 3), force(q, v) of q's shape, energy(q, v) one number per body. Tried on at most 3 bodies; the
+    energy on 2 or 3 even for one body, since simulate() hands it every state at once."""
     name = system.get("name", "this system")
     if q.ndim not in (1, 2) or q.shape[-1] != 3 or v.shape != q.shape:
         raise ValueError(f"{name}: q0 and v0 must both be (3,) for one body or (N, 3) for N bodies, "
                          f"got {q.shape} and {v.shape}")
     few = slice(None) if q.ndim == 1 else slice(0, 3)  # per-body laws: a few bodies show the shapes
-    with np.errstate(all="ignore"):
-        force, energy = np.shape(system["force"](q[few], v[few])), np.shape(system["energy"](q[few], v[few]))
+    force = returned(system["force"], q[few], v[few])
     if force != q[few].shape:
-        raise ValueError(f"{name}: force(q, v) must return one force per body, shape {q.shape}, got {force}")
-    if energy != q[few].shape[:-1]:
-        raise ValueError(f"{name}: energy(q, v) must return one number per body, shape {q.shape[:-1]}, got {energy}"
-                         " (sum the three components with dot3, not over the whole array)")
+        raise ValueError(f"{name}: force(q, v) must return one force per body, shape {q[few].shape}, got {force}")
+    states_q, states_v = np.reshape(q, (-1, 3))[:3], np.reshape(v, (-1, 3))[:3]
+    if len(states_q) == 1:
+        states_q, states_v = np.concatenate([states_q] * 2), np.concatenate([states_v] * 2)
+    energy = returned(system["energy"], states_q, states_v)
+    if energy != states_q.shape[:-1]:  # `v @ v`, the chapter's one-body energy, sums over the whole batch or fails
+        raise ValueError(f"{name}: energy(q, v) must return one number per body, shape {states_q.shape[:-1]} for"
+                         f" {len(states_q)} bodies, got {energy} (sum the three components with dot3, not over the"
+                         " whole array)")
+
+
+def returned(law, q, v):
+    """The shape of what law(q, v) returns, or the exception it raised, in words."""
+    try:
+        with np.errstate(all="ignore"):
+            return np.shape(law(q, v))
+    except Exception as error:  # a law written for one body only, such as v @ v, may fail on a batch
+        return f"a {type(error).__name__}"
 
 
 NEEDS = {"dforce_dv": "a velocity-dependent force", "velocity_free": "a force that ignores the velocity"}

@@ -6,8 +6,8 @@
 The chapter's spring (k = 4 N/m, m = 1 kg, stretched about 1 m) gets a damper: a force -b v against
 the velocity. Four integrators run it: the chapter's three, and `implicit`, the engine's fourth step,
 which takes the damping force at the new velocity instead of the old one (implicit_step, in engine_damping.py).
-The run measures which stay bounded, draws where each one does across dampings and stiffnesses,
-and points at the line of MuJoCo's source that decides it for mj_step.
+The run measures which stay bounded; --more also draws where each one does across dampings and
+stiffnesses, and points at the line of MuJoCo's source that decides it for mj_step.
 """
 
 import sys
@@ -58,7 +58,7 @@ def bounded_map() -> dict:
 def print_map(grid: dict, here: tuple[int, int]) -> None:
     """Four small maps side by side: '#' bounded, '.' not; the question's spring, at (row, column) here, '@' or 'x'."""
     width = len(MAP_DAMPING)
-    print("\n" + "".join(f"{name:<{width + 3}}" for name in NAMES))
+    print("".join(f"{name:<{width + 3}}" for name in NAMES))
     for row, w in enumerate(MAP_STIFFNESS):
         cells = []
         for name in NAMES:
@@ -93,9 +93,20 @@ def main(argv=None) -> int:
     print()
     verdict(answer, f"the ones that stay bounded are {shown}")
 
-    print_map(bounded_map(), (MAP_STIFFNESS.index(w), MAP_DAMPING.index(c)))
     bounds = {name: stability_map.analytic_interval(name, w) for name in NAMES}
-    explain(
+    explain("", f"Here c = dt b/m = {c:g} per step. Both Eulers take the damping at the old velocity, so each step"
+            " multiplies v by 1 - c: past c = 2 it flips sign and grows. RK4's four samples stretch that limit to"
+            f" c = {bounds['rk4'][1]:.3f} on this spring, so it survives here. The implicit step takes the damping at"
+            " the new velocity and divides v by 1 + c: bounded for any damping. MuJoCo's default Euler does the"
+            " same on a damped joint. More accurate per step is not more stable.",
+            more=lambda: the_whole_story(c, w, bounds))
+    return 0
+
+
+def the_whole_story(c: float, w: float, bounds: dict) -> list:
+    """The full explanation (--more): the maps, measured here, then what decides each integrator."""
+    print_map(bounded_map(), (MAP_STIFFNESS.index(w), MAP_DAMPING.index(c)))
+    return [
         "",
         f"The maps: stiffness per step w = dt sqrt(k/m) up, damping per step c = dt b/m across; '#' stayed"
         f" bounded for 2000 steps, '.' did not; your spring is the bottom row at c = {c:g} ('@' bounded,"
@@ -107,21 +118,20 @@ def main(argv=None) -> int:
         " a floor, c >= w^2: with less damping than that it adds energy, as it does to the orbit.",
         f"- rk4 samples the damping four times per step; its factor on a pure decay is 1 - c + c^2/2 - c^3/6 + c^4/24,"
         f" {1 - c + c * c / 2 - c * c * c / 6 + c * c * c * c / 24:.3f} at c = {c:g}: between -1 and 1 up to c = 2.785,"
-        " where it reaches 1, and no further. More accurate per step is not more stable.",
+        " where it reaches 1, and no further.",
         f"- implicit takes it at the NEW velocity: m (v_new - v) = -dt b v_new, so v_new = v / (1 + c) ="
         f" {1 / (1 + c):.3f} v: it shrinks for every c. Its spring is still explicit, though (look at the top"
         " rows): it needs w <= sqrt(4 + 2c) (at c = 0, w < 2), so a stiff enough spring beats it too.",
         "- Where MuJoCo decides it: src/engine/engine_forward.c at 3.10.0, in mj_EulerSkip, under the comment"
         " 'qH += h*diag(B)':",
-    )
-    print(f"\n    {MUJOCO_LINE}\n")
-    explain(
+        "",
+        f"    {MUJOCO_LINE}",
+        "",
         "- It adds h b to the mass matrix before solving for the acceleration: MuJoCo's default 'Euler' is the"
         " implicit step on any joint with damping (tests/test_damping.py shows it bit for bit), and"
         " implicitfast does the same through qDeriv. MuJoCo's RK4 has no such line: it survives this damping"
         " only because 2.5 is under 2.785; at b = 300 it blows up, warns and resets the simulation.",
-    )
-    return 0
+    ]
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ any force F = -grad V, is a nearby energy
     E~ = E - (dt/2) v . grad V(q) = E + (dt/2) v . F(q)
 
 The program runs the chapter's three systems (seed 0, 2000 steps of dt 0.01) under semi-implicit Euler,
-measures how far E and E~ each move from where they started, runs the orbit again at smaller steps,
+measures how far E and E~ each move from where they started; --more runs the orbit again with dt halved
 and tries the same E~ on explicit Euler and RK4. Then it writes a recording of both errors on the step
 timeline (outputs/ch3.3-engine/ex7_shadow.rrd; --no-rerun skips it, --rrd PATH puts it elsewhere).
 """
@@ -71,7 +71,7 @@ def print_table(runs: dict, guess: dict) -> dict:
 
 
 def print_ladder(ladder: list) -> None:
-    print(f"\nthe orbit at a fixed {STEPS * DT:g} s while dt halves: each band, and the factor it shrank by")
+    print(f"the orbit at a fixed {STEPS * DT:g} s while dt halves: each band, and the factor it shrank by")
     print(f"{'dt':>9}{'steps':>9}{'E band':>13}{'factor':>8}{'E~ band':>13}{'factor':>8}")
     previous = None
     for dt, steps, energy_band, shadow_band in ladder:
@@ -103,6 +103,28 @@ def main(argv=None) -> int:
     answers = print_table(runs, guess)
     verdict(answers)
 
+    explain_all(runs)
+    if args.rerun:
+        from exercises.support.shadow_recording import record
+
+        write_atomic(args.rrd, record(runs))  # built in memory, then written whole, as exercise 5's
+        print(f"\nrecording: {args.rrd} (open it with: rerun {args.rrd})")
+    return 0
+
+
+def explain_all(runs: dict) -> None:
+    """The lesson; with --more, the ladder and the other integrators, measured then, and the whole story."""
+    orbit = runs["orbit"]
+    explain("", "On the spring and the freefall E~ moved by round-off only: semi-implicit Euler keeps it exactly"
+            f" there. On the orbit it moved {orbit['energy_band'] / orbit['shadow_band']:.0f} times less than E,"
+            " and it shrinks like dt^2 where E's band shrinks like dt: E~ is the first two terms of an energy the"
+            " step keeps (backward error analysis). Since E = E~ - (dt/2) v . F(q), E stays in a band wherever v"
+            " and F keep coming back. On the freefall v_z grows without end, so E drifts while E~ holds.",
+            more=lambda: the_whole_story(runs))
+
+
+def the_whole_story(runs: dict) -> list:
+    """The full explanation (--more): two more tables, measured here, then every figure of the three."""
     ladder = shadow.halving_ladder("orbit")
     print_ladder(ladder)
     others = other_integrators()
@@ -115,16 +137,6 @@ def main(argv=None) -> int:
             print(f"{'':<22}{long_euler['energy_band']:>13.3e}{long_euler['shadow_band']:>13.3e}"
                   f"   after {LONG_STEPS:,} steps")
 
-    explain_all(runs, ladder, others, long_euler)
-    if args.rerun:
-        from exercises.support.shadow_recording import record
-
-        write_atomic(args.rrd, record(runs))  # built in memory, then written whole, as exercise 5's
-        print(f"\nrecording: {args.rrd} (open it with: rerun {args.rrd})")
-    return 0
-
-
-def explain_all(runs: dict, ladder: list, others: dict, long_euler: dict) -> None:
     spring, orbit, freefall = runs["spring"], runs["orbit"], runs["freefall"]
     fall = freefall["system"]
     g = -fall["force"](fall["q0"], fall["v0"])[2] / fall["m"]
@@ -133,7 +145,7 @@ def explain_all(runs: dict, ladder: list, others: dict, long_euler: dict) -> Non
     predicted = -0.5 * DT * fall["m"] * g * g * seconds / abs(freefall["energy"][0])
     depth = -float(np.min(freefall["positions"][:, 2]))
     (_, _, e_first, s_first), (_, _, e_next, s_next) = ladder[0], ladder[1]
-    explain(
+    return [
         "",
         "Backward error analysis (Hairer, Lubich and Wanner, Geometric Numerical Integration, chapter IX) turns"
         " the question round: not how far the steps are from the true motion, but which motion they follow"
@@ -175,7 +187,7 @@ def explain_all(runs: dict, ladder: list, others: dict, long_euler: dict) -> Non
         " joint with a stiffness, keeps E~ computed from its own qpos and qvel to round-off (tests/test_ex7.py"
         " runs it). That is a linear spring without damping: with joint damping mj_Euler is implicit in the"
         " damper (exercise 6), and contacts are another chapter.",
-    )
+    ]
 
 
 if __name__ == "__main__":

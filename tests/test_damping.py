@@ -356,7 +356,7 @@ def test_ex6_asks_first_and_gives_nothing_away(tmp_path):
 
 
 def test_ex6_grades_the_set_of_bounded_integrators(tmp_path):
-    result = run_ex6("--predict", "rk4,", "implicit", cwd=tmp_path)  # as a shell splits `--predict rk4, implicit`
+    result = run_ex6("--predict", "rk4,", "implicit", "--more", cwd=tmp_path)  # `--predict rk4, implicit`, split
     assert result.returncode == 0, result.stderr
     assert "Right: the ones that stay bounded are rk4, implicit." in result.stdout
     assert "d->qH[m->M_rowadr[i] + m->M_rownnz[i] - 1] += m->opt.timestep * damp_deriv;" in result.stdout

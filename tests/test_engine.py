@@ -183,6 +183,16 @@ def test_divergence_step_is_the_first_non_finite_energy():
     assert d["diverged"] and d["diverged_at_step"] == 3
 
 
+def test_a_blow_up_is_dated_where_the_energy_overflowed():
+    """energy_drift's docstring: exercise 6's semi-implicit Euler (b = 250) overflows its energy at step 886, its
+    state only at 1,748 (the energy squares the speed), and diverged_at_step is the energy's step."""
+    system = engine.build_system("damped_spring", np.random.default_rng(0), 250.0)
+    positions, velocities, energies = engine.simulate(engine.semi_implicit_step, system, 0.01, 2000)
+    state_finite = np.isfinite(positions).all(axis=-1) & np.isfinite(velocities).all(axis=-1)
+    assert engine.energy_drift(energies)["diverged_at_step"] == np.argmin(np.isfinite(energies)) == 886
+    assert np.argmin(state_finite) == 1748
+
+
 @pytest.mark.parametrize("system", list(engine.SYSTEMS))
 @pytest.mark.parametrize("dt", ["0.5", "2", "1e30", "1e300"])
 def test_absurd_timesteps_run_quietly_and_write_strict_json(system, dt, tmp_path, capsys):
@@ -196,12 +206,23 @@ def test_absurd_timesteps_run_quietly_and_write_strict_json(system, dt, tmp_path
     assert capsys.readouterr().err == ""
 
 
-def test_a_system_that_breaks_the_contract_gets_a_sentence():
-    """energy written with `v @ v` sums over the whole batch; a force of the wrong shape; a bad q0."""
+@pytest.mark.parametrize("bodies", [None, 1, 2, 3, 4])
+def test_an_energy_for_one_body_only_gets_the_sentence_whatever_the_batch(bodies):
+    """The chapter's `v @ v` energy sums over the whole batch, or fails on it with numpy's own error: either way,
+    one sentence, for one body (simulate() hands the energy every state at once) and for a batch of any size."""
     system = engine.build_system("spring", np.random.default_rng(0))
-    batch = {**system, "q0": np.stack([system["q0"]] * 4), "v0": np.stack([system["v0"]] * 4)}
-    with pytest.raises(ValueError, match=r"energy\(q, v\) must return one number per body, shape \(4,\)"):
-        engine.simulate(engine.euler_step, {**batch, "energy": lambda q, v: 0.5 * (v * v).sum()}, 0.01, 2)
+    if bodies:
+        system = {**system, "q0": np.stack([system["q0"]] * bodies), "v0": np.stack([system["v0"]] * bodies)}
+    for energy in (lambda q, v: 0.5 * (v @ v) + 2.0 * (q @ q), lambda q, v: 0.5 * (v * v).sum()):
+        with pytest.raises(ValueError, match=r"^spring: energy\(q, v\) must return one number per body, shape"
+                                             r" \([23],\) for [23] bodies, got (a ValueError|\(3, 3\)|\(\)) \(sum the"
+                                             r" three components with dot3"):
+            engine.simulate(engine.euler_step, {**system, "energy": energy}, 0.01, 2)
+
+
+def test_a_system_that_breaks_the_contract_gets_a_sentence():
+    """A force of the wrong shape; a bad q0."""
+    system = engine.build_system("spring", np.random.default_rng(0))
     with pytest.raises(ValueError, match=r"force\(q, v\) must return one force per body, shape \(3,\)"):
         engine.simulate(engine.euler_step, {**system, "force": lambda q, v: -4.0}, 0.01, 2)
     with pytest.raises(ValueError, match=r"q0 and v0 must both be \(3,\)"):

@@ -47,6 +47,13 @@ def test_no_prediction_no_figures(module, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_more_goes_with_a_prediction(tmp_path):
+    """--more asks for the whole explanation of a measurement: without --predict there is none to give."""
+    result = run_exercise("ex1_band", "--more", cwd=tmp_path)
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr == "exercises.ex1_band: error: --more goes with --predict: commit to a prediction too\n"
+
+
 @pytest.mark.parametrize("module, bad, forms", [
     ("ex1_band", "euler=grows", "name=word for each of euler, semi_implicit, rk4"),
     ("ex1_band", "euler=grows, semi_implicit=shrinks, rk4=grows", "one of grows, stays"),
@@ -107,18 +114,19 @@ def test_ex5_the_needles_area_change_is_the_shoelace_formulas_rounding_not_the_p
 
 @pytest.mark.slow
 def test_ex3_a_right_prediction_scores_three_and_the_orbit_story_is_told(tmp_path):
-    right = run_exercise("ex3_halve_dt", "--predict", "euler=2, semi_implicit=2, rk4=16", cwd=tmp_path)
+    right = run_exercise("ex3_halve_dt", "--predict", "euler=2, semi_implicit=2, rk4=16", "--more", cwd=tmp_path)
     assert right.returncode == 0 and "Right: euler 2, semi_implicit 2, rk4 16." in right.stdout
     assert "slides towards 16" in one_line(right.stdout)
 
 
 def test_ex3_grades_each_integrator_and_explains_the_system_it_ran(tmp_path):
     wrong = run_exercise("ex3_halve_dt", "--predict", "euler=2,semi_implicit=4,rk4=8", "--system", "spring",
-                         cwd=tmp_path)
+                         "--more", cwd=tmp_path)
     assert "Not quite: you said euler=2, semi_implicit=4, rk4=8, but euler 2, semi_implicit 2, rk4 16." in wrong.stdout
     assert wrong.stdout.count("not quite") == 2
     told = one_line(wrong.stdout.split("What the ladder shows:")[1])
     assert "orbit" not in told and "32 at every rung" in told
+    assert "on the spring RK4's stays near 32" in one_line(wrong.stdout)  # the lesson comes first, for this system
     assert list(tmp_path.iterdir()) == []
 
 
@@ -134,7 +142,7 @@ def test_ex4_crossover_is_measured_through_engine_simulate():
 
 @pytest.mark.slow
 def test_ex4_finds_the_crossover_and_grades_the_horizon(tmp_path):
-    result = run_exercise("ex4_long_run", "--predict", "1,000", cwd=tmp_path)
+    result = run_exercise("ex4_long_run", "--predict", "1,000", "--more", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     rows = re.findall(r"^\s*(0\.\d+)\s+(\S+)\s+([\d,]+)\s+([\d,]+)$", result.stdout, flags=re.M)
     assert [dt for dt, *_ in rows] == ["0.3", "0.25", "0.2"]

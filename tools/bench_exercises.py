@@ -24,9 +24,11 @@ TARGET_SECONDS, BOARD_SECONDS = 10.0, 0.5
 
 
 def commands() -> list:
-    """Each exercise bare, and every command ANSWERS.md pastes (the ones that measure): found, not listed."""
+    """Each exercise bare, and every command ANSWERS.md pastes (the ones that measure), as a student first runs
+    it (without --more) and as pasted: found, not listed."""
     answers = (REPO / "exercises" / "solutions" / "ANSWERS.md").read_text()
     pasted = re.findall(r"`(python -m exercises\.\S+ [^`]+)`[^`\n]*\n\n```", answers)
+    pasted = [short for command in pasted for short in dict.fromkeys([command.replace(" --more", ""), command])]
     bare = [f"python -m exercises.{name}" for _, name, kind in exercises(REPO / "exercises") if kind == "predict"]
     checkers = [f"python -m exercises.check_ex{number}" for number, _, kind in exercises(REPO / "exercises")
                 if kind == "code"]

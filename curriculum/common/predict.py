@@ -5,8 +5,8 @@ How an exercise uses it (ex4_long_run.py is a short example):
     parser = OneLineParser(prog="exercises.ex5_something", description=__doc__, ...)  # curriculum.common.cli
     prediction = ask(parser, "The question, ending in a question mark?", OneOf(["a", "b"]), argv)
     ...measure, with no output before this line...
-    verdict(prediction == answer, f"it is {answer}", prediction)   # "Right: it is a." / "Not quite: ..."
-    explain("- first thing the numbers show ...", "- second ...")
+    verdict(answer, f"it is {answer}")   # "Right: it is a." / "Not quite: you said b, but it is a."
+    explain("The lesson, naming the one figure that matters.", more=lambda: ["- the full story ...", ...])
 
 - `ask` adds `--predict` to the parser. Run bare, the exercise prints the question, the accepted
   answers and how to commit (four lines, no figure) and exits 0: asking is not an error. A
@@ -22,6 +22,11 @@ How an exercise uses it (ex4_long_run.py is a short example):
 - `verdict` and `explain` are the one place that prints the grade and the explanation, after the
   measurement. Keep measured answers out of the module docstring, --help and the question:
   tests/test_docs.py reads them for leaks.
+- Short answers first: `ask` adds `--more` too. `explain(lesson, more=function)` prints the lesson (at
+  most 120 words, naming the one figure that matters; tests/test_docs.py counts) and a line that says
+  `--more` tells the rest. Under `--more` it then calls `function()`, which prints any further table and
+  returns the full explanation's lines, so what only the full story needs is measured only when asked
+  for, in the same run. The "Next:" line follows either way.
 - The journal (curriculum.common.journal) is written here, so no exercise records anything itself: `ask`
   records the prediction (with `--because`'s reason) before it returns, so before any figure; a bare run
   records that the question was asked, or shows what was committed and when. `verdict` records how many
@@ -208,15 +213,20 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, vari
                         help=f"your prediction: {answers.forms}")
     parser.add_argument("--because", metavar="REASON", nargs="+", action="extend",
                         help="why you predict that, in your words: recorded with your prediction")
+    parser.add_argument("--more", action="store_true",
+                        help="after the measurement, the full explanation (with any further table) instead of"
+                             " the short lesson alone")
     args = parser.parse_args(argv)
     parser.parsed = args
+    _asked.update(question=question, answers=answers, more=args.more)  # what was asked, for explain() and the tests
     found = EXERCISE_FILE.fullmatch(f"{parser.prog.rpartition('.')[2]}.py")
     number = int(found.group(1)) if found else None  # None: not one of the course's exercises, nothing recorded
     value = getattr(args, variant) if variant else None
     asked = f"{variant}={value}" if variant and value != parser.get_default(variant) else ""  # "": the default
     if args.predict is None:
-        if args.because:
-            parser.exit(2, f"{parser.prog}: error: --because goes with --predict: commit to a prediction too\n")
+        for flag in ("because", "more"):
+            if getattr(args, flag):
+                parser.exit(2, f"{parser.prog}: error: --{flag} goes with --predict: commit to a prediction too\n")
         run = how_it_was_run(parser.prog) + (f" --{variant} {value}" if asked else "")
         show_question(run, question, answers, number, asked)
         sys.exit(0)
@@ -234,7 +244,13 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, vari
     return prediction
 
 
-_asked = {}  # what ask() returned and recorded, for verdict()
+_asked = {}  # what ask() asked, returned and recorded, for verdict() and explain()
+
+
+def asked() -> dict:
+    """What the last ask() asked: {"question": text, "answers": OneOf, Number, PerName or SomeOf, ...}. A bare
+    run asks and exits, so tests/test_docs.py reads each exercise's own answer form here."""
+    return dict(_asked)
 
 
 def show_question(run: str, question: str, answers, number: int, asked: str) -> None:
@@ -328,11 +344,28 @@ def verdict(truth, answer: str | None = None) -> None:
         print(_asked["note"])
 
 
-def explain(*lines: str, width: int = 100) -> None:
-    """Print the explanation, each line wrapped for a terminal; a line starting with '- ' is a bullet."""
+MORE = "The same command with --more explains every figure."
+
+
+def explain(*lines: str, more=None, width: int = 100) -> None:
+    """Print the explanation, each line wrapped for a terminal; a line starting with '- ' is a bullet, one
+    starting with four spaces is code, printed as it is.
+
+    With `more`, the lines are the lesson: run with --more, `more()` then prints any further table and
+    returns the full explanation's lines, printed after a blank line; run without, one line says so (MORE).
+    `more` is a function so that what only the full explanation needs is measured only when it is wanted.
+    """
     for line in lines:
         indent = "  " if line.startswith("- ") else ""
-        print(textwrap.fill(line, width=width, subsequent_indent=indent) if line else "")
+        code = line.startswith("    ")
+        print(line if code else textwrap.fill(line, width=width, subsequent_indent=indent) if line else "")
+    if more is None:
+        return
+    if _asked.get("more"):
+        print()
+        explain(*more(), width=width)
+    else:
+        print(MORE)
 
 
 def _name_key(text: str) -> str:
