@@ -11,8 +11,9 @@ engine.build_system):
 - damped: the energy drains by design (the system gives `dissipation` and `dforce_dv`), and its exact
   motion referees the run instead.
 
-An integrator's passport (attributes of the step): order, force_evaluations (per step), chapter (one of
-the chapter's three, which the verdict and the exercises compare by name) and needs: what a system must
+An integrator's passport (attributes of the step): order, force_evaluations (per step), symplectic (its
+energy error stays in a band on a motion that comes back), chapter (one of the chapter's three, which the
+verdict and the exercises compare by name) and needs: what a system must
 declare for the step to be offered on it, a fact that must be true (velocity_free, for a method whose order
 holds only for forces that ignore the velocity) or a value the step takes as an argument (dforce_dv, for
 implicit_step). `integrators_for(system)` offers exactly those; tests/test_engine.py measures every
@@ -39,10 +40,11 @@ def system(name: str, returns=False, potential=True, velocity_free=True, damped=
     return declare
 
 
-def integrator(name: str, order: int, force_evaluations: int, chapter=True, needs=()):
+def integrator(name: str, order: int, force_evaluations: int, symplectic=False, chapter=True, needs=()):
     """Declare the decorated step under `name`, with its passport (see above)."""
     def declare(step):
-        vars(step).update(order=order, force_evaluations=force_evaluations, chapter=chapter, needs=tuple(needs))
+        vars(step).update(order=order, force_evaluations=force_evaluations, symplectic=symplectic, chapter=chapter,
+                          needs=tuple(needs))
         INTEGRATORS[name] = step
         return step
 

@@ -211,7 +211,10 @@ QUICK = {"semi_mass_twice.py", "semi_returns_lists.py", "rk4_floor_division.py",
 
 def test_every_planted_file_has_its_expected_message():
     planted = {p.relative_to(PLANTED).as_posix() for p in [*PLANTED.glob("*.py"), *PLANTED.glob("*/student.py")]}
-    assert planted - {"_right.py"} == set(PLANTED_MESSAGES)
+    assert planted - {"_right.py"} == set(PLANTED_MESSAGES), (
+        "every planted file needs its line in PLANTED_MESSAGES (the words the student must see), and every line its"
+        f" file in tests/planted/: files without a line {sorted(planted - {'_right.py'} - set(PLANTED_MESSAGES))},"
+        f" lines without a file {sorted(set(PLANTED_MESSAGES) - planted)}")
 
 
 @pytest.mark.parametrize("planted", [pytest.param(name, marks=() if name in QUICK else pytest.mark.slow)

@@ -65,8 +65,9 @@ def test_conservative_systems_are_offered_every_integrator_that_needs_nothing_mo
     assert engine.CHAPTER_INTEGRATORS == ("euler", "semi_implicit", "rk4") and "implicit" not in needs_nothing
     for name in (name for name, build in engine.SYSTEMS.items() if not build.facts["damped"]):
         system = engine.build_system(name, np.random.default_rng(0))
-        assert list(engine.integrators_for(system)) == needs_nothing and "dforce_dv" not in system
-    assert list(engine.integrators_for(damped())) == list(engine.INTEGRATORS)
+        offered = engine.integrators_for(system)
+        assert set(needs_nothing) <= set(offered) and "implicit" not in offered and "dforce_dv" not in system
+    assert set(engine.integrators_for(damped())) >= {*engine.CHAPTER_INTEGRATORS, "implicit"}
 
 
 @pytest.mark.parametrize("b", [0.5, 4.0, STIFF], ids=["under", "critical", "over"])

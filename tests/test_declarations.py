@@ -8,6 +8,7 @@ and says why.
 """
 
 import ast
+import math
 from pathlib import Path
 
 import numpy as np
@@ -92,8 +93,52 @@ def test_a_motion_that_returns_comes_back_near_its_start(system_name):
     positions, _, _ = engine.simulate(engine.rk4_step, system, 0.001, 20_000)
     away = np.sqrt(np.sum((positions - positions[0]) ** 2, axis=1))
     farthest = np.maximum.accumulate(away)
-    came_back = bool(np.any((away < 0.05 * farthest) & (farthest > 0)))
-    assert came_back == system["returns"], f"{system_name} declares returns={system['returns']}"
+    closest = float(np.min(away[farthest > 0] / farthest[farthest > 0]))  # nearest return, as a share of the reach
+    assert (closest < 0.05) == system["returns"], (
+        f"{system_name} declares returns={system['returns']}, but in 20 s it came back to within"
+        f" {closest:.1%} of the farthest it went from its start")
+
+
+@pytest.mark.parametrize("system_name", SYSTEMS)
+def test_an_undamped_system_keeps_its_energy(system_name):
+    """A system that declares no damping must conserve the energy it declares (fine RK4, 20 s: a drift of ~1e-13),
+    whether or not its force has a potential (a constraint force does no work)."""
+    system = built(system_name)
+    if system["damped"]:
+        pytest.skip(f"{system_name} is damped: its dissipation is measured instead")
+    _, _, energies = engine.simulate(engine.rk4_step, system, 0.001, 20_000)
+    drift = engine.energy_drift(energies)
+    assert not drift["diverged"] and drift["rel_max"] < 1e-9, (
+        f"{system_name} is not damped, yet its energy() moves by {drift['rel_max']} of E0 on a fine RK4 run:"
+        " is energy() the quantity its force keeps?")
+
+
+BAND_SLACK = 0.01  # a worst error that grows by less than 1% when the run is 8 times longer stays in a band
+
+
+@pytest.mark.parametrize("system_name, integrator", PAIRS)
+def test_a_symplectic_step_keeps_the_energy_in_a_band_and_no_other_does(system_name, integrator):
+    """symplectic=True: on a motion that returns under a potential, the worst energy error after 8 times the run
+    is the first run's, to 1%; a step that is not symplectic grows (as exercise 1 measures at dt 0.01)."""
+    system = built(system_name)
+    if not (system["returns"] and system["potential"] and system["velocity_free"]):
+        pytest.skip(f"{system_name}: a band is a claim about a motion that returns under a velocity-free potential")
+    _, _, energies = engine.simulate(engine.INTEGRATORS[integrator], system, 0.05, 16_000)
+    first, whole = (engine.energy_drift(energies[: steps + 1]) for steps in (2_000, 16_000))
+    growth = math.inf if whole["diverged"] else whole["rel_max"] / first["rel_max"]
+    symplectic = engine.INTEGRATORS[integrator].symplectic
+    assert (growth < 1 + BAND_SLACK) == symplectic, (
+        f"{integrator} declares symplectic={symplectic}, but on {system_name} (dt 0.05) its worst energy error grew"
+        f" {growth:.4g} times when the run was 8 times longer")
+
+
+@pytest.mark.parametrize("system_name", SYSTEMS)
+def test_no_two_integrators_are_the_same_step(system_name):
+    """A step that calls another (a "new" method that is RK4 underneath) would pass every figure it copies."""
+    system = built(system_name)
+    runs = {name: engine.simulate(step, system, 0.05, 20)[0] for name, step in engine.integrators_for(system).items()}
+    same = [(a, b) for a in runs for b in runs if a < b and np.array_equal(runs[a], runs[b])]
+    assert not same, f"on {system_name} these integrators take the very same steps: {same}"
 
 
 def test_an_integrator_is_offered_exactly_where_its_needs_are_met():

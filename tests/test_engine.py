@@ -87,7 +87,9 @@ def test_each_conservative_force_is_minus_the_gradient_of_its_energy(system_name
         step = h * np.eye(3)
         gradient = np.array([(system["energy"](q + d, v) - system["energy"](q - d, v)) / (2 * h) for d in step])
         force = system["force"](q, v)
-        np.testing.assert_allclose(force, -gradient, rtol=0, atol=1e-6 * (1 + np.abs(force).max()))
+        np.testing.assert_allclose(force, -gradient, rtol=0, atol=1e-6 * (1 + np.abs(force).max()),
+                                   err_msg=f"{system_name} declares potential=True: its force must be -grad of its"
+                                           " energy's potential part (or declare potential=False)")
 
 
 def test_energy_is_the_same_for_one_state_and_for_a_history():
