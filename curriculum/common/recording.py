@@ -108,6 +108,7 @@ def recorded(application_id: str, fill, recording_id: str | None = None) -> byte
             stream.send_blueprint(fill(stream), make_active=False, make_default=True)
         finally:
             data = in_memory.drain_as_bytes()
+            del in_memory, stream  # the stream's own flush (its __del__) runs now, while signals still wait
     return data
 
 
