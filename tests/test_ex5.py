@@ -178,7 +178,7 @@ def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(ch
     """Like engine.py's: the whole run, the cursor on the last step, panels closed; every frame of every blob
     inside the camera's view, the axes named at their own tips, a key naming each integrator in its colour."""
     rrb = pytest.importorskip("rerun.blueprint")
-    from test_recording import column, packed, read_recording, views_of
+    from test_recording import column, opens_on, packed, read_recording, views_of
 
     ex5.record(tmp_path / "blob.rrd", chapter_table)
     _, entities, settings = read_recording(tmp_path / "blob.rrd")
@@ -191,7 +191,7 @@ def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(ch
 
     views = views_of(settings)
     assert set(views) == {("3D", "phase"), ("TimeSeries", "area")}
-    assert views[("TimeSeries", "area")]["TimeAxis:view_range"] == {"start": 0, "end": ex5.STEPS}
+    assert views[("TimeSeries", "area")]["TimeAxis:view_range"] == opens_on(ex5.STEPS)
     camera = views[("3D", "phase")]
     target, eye = np.array(camera["EyeControls3D:look_target"]), np.array(camera["EyeControls3D:position"])
     assert eye[1] == pytest.approx(target[1]) and eye[2] > target[2], "straight down: v_x up the screen"

@@ -362,13 +362,13 @@ def test_the_recording_holds_e_and_e_tilde_worst_so_far_at_every_step(recording,
 
 def test_the_recording_opens_on_three_plots_of_the_whole_run(recording):
     import rerun.blueprint as rrb
-    from test_recording import views_of
+    from test_recording import opens_on, views_of
 
     _, settings, _ = recording
     views = views_of(settings)
     assert set(views) == {("TimeSeries", name) for name in shadow.SYSTEMS}
     for (_, origin), props in views.items():
-        assert props["TimeAxis:view_range"] == {"start": 0, "end": shadow.STEPS}, f"{origin}: all the steps"
+        assert props["TimeAxis:view_range"] == opens_on(shadow.STEPS), f"{origin}: all the steps"
         low, high = props["ScalarAxis:range"]
         assert low < -16.0 and high > 0.0, f"{origin}: from the floor to an error as large as the quantity"
     assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
