@@ -413,6 +413,7 @@ LISTED = {  # issue 24's recordings, made as a student makes them (the README's 
     "orbit at dt 0.5": ["--system", "orbit", "--dt", "0.5"],
     "ensemble of 1000": ["--ensemble", "1000"],
     "exercise 5": "ex5",
+    "exercise 7": "ex7",
 }
 EDGES = {  # where every integrator diverges, the damping limit, one step, a blow-up at the very first step
     "spring at dt 3": ["--system", "spring", "--dt", "3"],
