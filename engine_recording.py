@@ -21,6 +21,7 @@ from engine_referee import distance, overflow_step, relative_energy_error
 APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '_' and '-'
 EXACT_GREY = (120, 120, 120)  # the exact motion, drawn wide under the integrators' lines
 LIFT = 1e-3  # of a view's width: how much higher each next trail is drawn, so lines on one another all show
+EXACT_POINTS = 100_000  # the most points the grey exact motion is drawn with, however coarse the steps
 
 
 def record(system: dict, runs: dict, kept: np.ndarray, dt: float, run_id: str,
@@ -132,10 +133,26 @@ def exact_path(system, kept, dt):
     return system["exact"](*first_start(system), kept * dt) if system.get("exact") else None
 
 
+def smooth(exact_at, kept, dt):
+    """exact_at(times) drawn as a smooth grey curve: at the kept steps, each step between them cut into as many
+    pieces as it takes for no point to be more than 1/50 of the motion's size from the next (at most
+    EXACT_POINTS in all). At a large dt the kept steps alone would join far-apart points of the orbit by chords."""
+    coarse = exact_at(kept * dt)
+    shown = coarse[course.drawable(coarse)][:, :2]
+    if len(shown) < 2:
+        return coarse
+    chord = float(np.max(np.abs(np.diff(shown, axis=0))))
+    pieces = min(math.ceil(chord / (0.02 * (float(np.ptp(shown, axis=0).max()) or 1.0))), EXACT_POINTS // len(kept))
+    if pieces <= 1:
+        return coarse
+    steps = (kept[:-1, None] + np.arange(pieces) / pieces * np.diff(kept)[:, None]).ravel()
+    return exact_at(np.append(steps, kept[-1]) * dt)
+
+
 def log_paths(rr, recording, system, runs, kept, dt, looks, origin="paths", title="the paths", anchors=()):
     """3D, seen from above at a slight tilt: each integrator's path as a trail, its body at the end, a key."""
     paths = {integrator: positions for integrator, (positions, _, _) in runs.items()}
-    exact = exact_path(system, kept, dt)
+    exact = smooth(lambda t: system["exact"](*first_start(system), t), kept, dt) if system.get("exact") else None
     grey = " (grey: the exact motion)" if exact is not None else ""
     return log_flat(rr, recording, origin, f"{title}, from above{grey}", looks, paths, kept, exact, anchors,
                     tilt=0.35)
@@ -159,11 +176,14 @@ def log_phase_plane(rr, recording, system, runs, kept, dt, looks):
     exact, stretch = None, 1.0
     if system.get("exact"):  # its velocity is the exact position's central difference over a microsecond
         q0, v0 = first_start(system)
-        t, h = kept * dt, 1e-6
-        x = system["exact"](q0, v0, t)[:, 0]
-        v = (system["exact"](q0, v0, t + h)[:, 0] - system["exact"](q0, v0, t - h)[:, 0]) / (2.0 * h)
-        stretch = stretch_for(x, v)
-        exact = flat(x, stretch * v)
+
+        def phase(t, h=1e-6):
+            x_of = system["exact"]
+            return flat(x_of(q0, v0, t)[:, 0], (x_of(q0, v0, t + h)[:, 0] - x_of(q0, v0, t - h)[:, 0]) / (2.0 * h))
+
+        at_steps = phase(kept * dt)
+        stretch = stretch_for(at_steps[:, 0], at_steps[:, 1])
+        exact = smooth(lambda t: phase(t) * [1.0, stretch, 1.0], kept, dt)
     planes = {name: flat(positions[:, 0], stretch * velocities[:, 0])
               for name, (positions, velocities, _) in runs.items()}
     grey = " (grey: the exact motion)" if exact is not None else ""
