@@ -135,8 +135,8 @@ def exact_path(system, kept, dt):
 
 def smooth(exact_at, kept, dt):
     """exact_at(times) drawn as a smooth grey curve: at the kept steps, each step between them cut into as many
-    pieces as it takes for no point to be more than 1/50 of the motion's size from the next (at most
-    EXACT_POINTS in all). At a large dt the kept steps alone would join far-apart points of the orbit by chords."""
+    pieces as the longest step's chord is fiftieths of the motion's size (at most EXACT_POINTS points in all).
+    At a large dt the kept steps alone would join far-apart points of the orbit by chords across it."""
     coarse = exact_at(kept * dt)
     shown = coarse[course.drawable(coarse)][:, :2]
     if len(shown) < 2:
