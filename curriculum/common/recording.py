@@ -126,8 +126,9 @@ def on_steps(steps):
 def log_series(stream, entity: str, steps, values, look: Look, width: float | None = None):
     """One line on the `step` timeline in look's colour, named look.label in the legend. Non-finite
     values (a diverged run, the log of an exact zero) are left out; a line of FEW_POINTS values or fewer
-    marks each one (a single value draws no line); a line with none left is named in the legend and sends
-    no column (three empty columns in one recording crash Rerun 0.41's viewer). Returns the values logged."""
+    marks each one (a single value draws no line), a flat two-point reference excepted; a line with none left
+    is named in the legend and sends no column (three empty columns in one recording crash Rerun 0.41's
+    viewer). Returns the values logged."""
     import numpy as np
     import rerun as rr
 
@@ -135,7 +136,8 @@ def log_series(stream, entity: str, steps, values, look: Look, width: float | No
     style = rr.SeriesLines(colors=[look.colour], names=[look.label], widths=None if width is None else [width])
     stream.log(entity, style, static=True)
     shown = np.isfinite(values)
-    if 0 < np.count_nonzero(shown) <= FEW_POINTS:  # a short run: a marker on every value, or one value draws nothing
+    level = np.count_nonzero(shown) == 2 and np.ptp(values[shown]) == 0.0  # a reference across the run: no marks
+    if 0 < np.count_nonzero(shown) <= FEW_POINTS and not level:  # a short run: mark each value (one draws no line)
         marker = rr.SeriesPoints(colors=[look.colour], names=[look.label], marker_sizes=[3.0 + (width or 1.0)])
         stream.log(entity, marker, static=True)
     if shown.any():
