@@ -115,7 +115,7 @@ def print_damped_report(system: dict, dt: float, steps: int, drifts: dict, solut
           f"{'damper work':>13}{'mismatch/E0':>13}")
     for name, d in solution.items():
         if drifts[name]["diverged"]:
-            print(f"{name:<14}  diverged: energy non-finite from step {drifts[name]['diverged_at_step']:,}")
+            print(f"{name:<14}  diverged: energy overflowed at step {drifts[name]['energy_overflow_step']:,}")
         else:
             print(f"{name:<14}{d['err_max']:>14.4e}{d['err_final']:>12.4e}{'yes' if d['bounded'] else 'NO':>9}"
                   f"{cell(d['energy_lost'], 10)}{cell(d['damper_work'], 13)}{d['work_mismatch']:>+13.4e}")

@@ -1,6 +1,8 @@
 """The referee's maths, for engine.py: what every run is measured against.
 
 - `relative_energy_error`: (E - E0) / |E0|, the one formula for how far the energy moved.
+- `overflow_step`: the step at which a run blew up, the one definition the table, metrics.json, the recording
+  and exercise 6 name.
 - `distance`: |q - q_exact|, the one formula for how far a body is from its exact motion.
 - The closed-form motions the exact referees come from: `kepler_orbit` (and `kepler_period`) for the
   orbit, `damped_oscillator` for the damped spring.
@@ -29,6 +31,14 @@ def relative_energy_error(energies: np.ndarray, e0=None) -> np.ndarray:
     e0 = energies[0] if e0 is None else e0
     with np.errstate(all="ignore"):  # finite energies can still be so far apart that the error overflows
         return (energies - e0) / np.where(e0 != 0.0, np.abs(e0), 1.0)
+
+
+def overflow_step(energies: np.ndarray) -> int | None:
+    """The step at which a run blew up: the first whose energy error is no longer a finite number (the energy
+    overflowed, |q| or |v| past about 1e154, or went NaN), or None. Its state overflows later (a float holds up to
+    1.8e308) but its energy, the referee, can no longer say anything from here: "energy overflowed at step N"."""
+    finite = np.isfinite(relative_energy_error(np.asarray(energies, dtype=float)))
+    return None if finite.all() else int(np.argmin(finite))
 
 
 def distance(positions: np.ndarray, exact: np.ndarray) -> np.ndarray:

@@ -26,6 +26,7 @@ import engine_damping
 from curriculum.common.cli import OneLineParser
 from curriculum.common.outputs import one_line_failures
 from curriculum.common.predict import SomeOf, ask, explain, verdict
+from engine_referee import overflow_step
 from exercises.support import stability_map
 
 DAMPING, DT, STEPS = 250.0, 0.01, 2000  # b in N s/m; 2000 steps is the chapter's run
@@ -36,15 +37,15 @@ MAP_DAMPING = [0.0, 0.001, 0.01, 0.1, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 5.0, 10.0, 1
 
 
 def measure(damping: float = DAMPING) -> dict:
-    """{integrator: (bounded, blew up at step or None, worst |q - exact|)} on the chapter's damped spring."""
+    """{integrator: (bounded, the step its energy overflowed at or None, worst |q - exact|)} on the chapter's damped
+    spring: the step engine.py's table and metrics.json name (engine_referee.overflow_step)."""
     system = engine.build_system("damped_spring", np.random.default_rng(0), damping)
     results = {}
     steps = engine.integrators_for(system)
     for name in NAMES:  # the four the question names, whatever else the engine may have learnt since
         positions, velocities, energies = engine.simulate(steps[name], system, DT, STEPS)
         audit = engine_damping.against_exact(system, positions, velocities, energies, engine.kept_steps(STEPS), DT)
-        blown = np.flatnonzero(~np.isfinite(energies))
-        results[name] = (audit["bounded"], int(blown[0]) if blown.size else None, audit["err_max"])
+        results[name] = (audit["bounded"], overflow_step(energies), audit["err_max"])
     return results
 
 
@@ -85,7 +86,7 @@ def main(argv=None) -> int:
     print(f"damped spring, b = {DAMPING:g} N s/m, dt = {DT} s: per step c = dt b/m = {c:g}, w = dt sqrt(k/m) = {w:g}")
     print(f"{'integrator':<15}{'bounded':>9}   what happened")
     for name, (bounded, blown, err) in results.items():
-        story = f"blew up: non-finite from step {blown:,}" if blown is not None else (
+        story = f"blew up: energy overflowed at step {blown:,}" if blown is not None else (
             f"worst distance from the exact solution {err:.2e} m" if bounded else "grew, still finite")
         print(f"{name:<15}{'yes' if bounded else 'NO':>9}   {story}")
     answer = frozenset(name for name, (bounded, _, _) in results.items() if bounded)

@@ -168,6 +168,31 @@ def test_stiff_run_reports_who_stayed_bounded(tmp_path):
     assert "euler           diverged" in result.stdout and "over-damped" in result.stdout
 
 
+def test_blew_up_at_step_n_is_one_step_named_the_same_everywhere(tmp_path, capsys):
+    """Exercise 6's b = 250 (issue 24): the step a run blew up at is the step its energy overflowed (886; its state
+    stays finite until step 1,748), and the table, metrics.json, the recording and exercise 6 all name that one."""
+    pytest.importorskip("rerun.chunk", reason="rerun-sdk is a core dependency; install the project")
+    from test_recording import column, read_recording
+
+    b = ex6_stiff_damping.DAMPING
+    assert engine.main(["--system", "damped_spring", "--damping", f"{b:g}", "--out", str(tmp_path)]) == 0
+    table = capsys.readouterr().out
+    metrics = json.loads((tmp_path / engine.METRICS_FILE).read_text())
+    _, entities, _ = read_recording(tmp_path / engine.RECORDING_FILE)
+    key = " ".join(column(entities["/phase/key"], "Points3D:labels")[0])
+    exercise = ex6_stiff_damping.measure()
+    for name in ("euler", "semi_implicit"):  # both Eulers blow up together on this spring
+        positions, _, energies = engine.simulate(engine.INTEGRATORS[name], damped(b), 0.01, 2000)
+        assert np.isfinite(positions[1700]).all(), "the state is still finite long after its energy overflowed"
+        step = int(np.flatnonzero(~np.isfinite(energies))[0])
+        assert step == 886 == metrics["drift"][name]["energy_overflow_step"] == exercise[name][1]
+        assert re.search(rf"{name} +diverged: energy overflowed at step 886\n", table)
+        assert "energy overflowed at step 886" in key
+        assert column(entities[f"/position_error/{name}"], "SeriesLines:names")[0][0].endswith(
+            "energy overflowed at step 886")
+    assert metrics["drift"]["rk4"]["energy_overflow_step"] is None and exercise["rk4"][1] is None
+
+
 def test_default_damping_is_bounded_for_all_and_two_runs_write_the_same_bytes(tmp_path):
     """Same bytes also with numpy's SIMD levels switched off: the closed form uses math's exp/cos/sin,
     because numpy's own pick a CPU-specific kernel whose last bits differ."""

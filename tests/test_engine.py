@@ -47,7 +47,7 @@ def test_drift_ordering_holds_for_every_seed(system):
     for seed in range(5):
         euler, semi, rk4 = (drift_of(system, name, seed=seed) for name in engine.CHAPTER_INTEGRATORS)
         for name, d in zip(engine.CHAPTER_INTEGRATORS, (euler, semi, rk4), strict=True):
-            assert not d["diverged"], f"{system}, seed {seed}: {name} diverged at step {d['diverged_at_step']:,}"
+            assert not d["diverged"], f"{system}, seed {seed}: {name} diverged at step {d['energy_overflow_step']:,}"
         assert abs(euler["rel_final"]) > semi["rel_max"] > rk4["rel_max"] > 0
 
 
@@ -133,7 +133,7 @@ def test_metrics_schema_and_rounding(tmp_path, capsys):
                                                                           "steps": 2000, "seed": 0}
     assert set(metrics["drift"]) == set(engine.integrators_for(engine.build_system("orbit", np.random.default_rng(0))))
     for d in metrics["drift"].values():
-        assert set(d) == {"e0", "e_final", "rel_final", "rel_max", "final_pos", "diverged", "diverged_at_step"}
+        assert set(d) == {"e0", "e_final", "rel_final", "rel_max", "final_pos", "diverged", "energy_overflow_step"}
         for key in ("e0", "e_final", "rel_final", "rel_max"):
             assert d[key] == round(d[key], 12)
         assert len(d["final_pos"]) == 3 and all(x == round(x, 6) for x in d["final_pos"])
@@ -173,25 +173,25 @@ def test_diverged_run_writes_strict_json_and_names_the_step(tmp_path, capsys):
     metrics = json.loads(text, parse_constant=lambda token: pytest.fail(f"non-strict JSON token {token}"))
     for name, d in metrics["drift"].items():
         assert d["diverged"] is True and d["rel_final"] is None and d["rel_max"] is None, name
-        assert isinstance(d["diverged_at_step"], int) and 0 < d["diverged_at_step"] <= 2000
+        assert isinstance(d["energy_overflow_step"], int) and 0 < d["energy_overflow_step"] <= 2000
     out = capsys.readouterr()
-    assert "diverged: energy error non-finite from step" in out.out and "cannot judge" in out.out
+    assert "diverged: energy overflowed at step" in out.out and "cannot judge" in out.out
     assert out.err == ""
 
 
 def test_divergence_step_is_the_first_non_finite_energy():
     energies = np.array([1.0, 1.5, 3.0, np.inf, np.nan])
     d = engine.energy_drift(energies)
-    assert d["diverged"] and d["diverged_at_step"] == 3
+    assert d["diverged"] and d["energy_overflow_step"] == 3
 
 
 def test_a_blow_up_is_dated_where_the_energy_overflowed():
-    """energy_drift's docstring: exercise 6's semi-implicit Euler (b = 250) overflows its energy at step 886, its
-    state only at 1,748 (the energy squares the speed), and diverged_at_step is the energy's step."""
+    """Exercise 6's semi-implicit Euler (b = 250) overflows its energy at step 886, its state only at 1,748 (the
+    energy squares the speed): energy_overflow_step, the one step every place names, is the energy's."""
     system = engine.build_system("damped_spring", np.random.default_rng(0), 250.0)
     positions, velocities, energies = engine.simulate(engine.semi_implicit_step, system, 0.01, 2000)
     state_finite = np.isfinite(positions).all(axis=-1) & np.isfinite(velocities).all(axis=-1)
-    assert engine.energy_drift(energies)["diverged_at_step"] == np.argmin(np.isfinite(energies)) == 886
+    assert engine.energy_drift(energies)["energy_overflow_step"] == np.argmin(np.isfinite(energies)) == 886
     assert np.argmin(state_finite) == 1748
 
 

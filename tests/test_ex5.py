@@ -179,7 +179,7 @@ def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(ch
     """Like engine.py's: the whole run, the cursor on the last step, panels closed; every frame of every blob
     inside the camera's view, the axes named at their own tips, a key naming each integrator in its colour."""
     rrb = pytest.importorskip("rerun.blueprint")
-    from test_recording import column, packed, read_recording, views_of
+    from test_recording import column, opens_on, packed, read_recording, views_of
 
     ex5.record(tmp_path / "blob.rrd", chapter_table)
     _, entities, settings = read_recording(tmp_path / "blob.rrd")
@@ -192,7 +192,7 @@ def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(ch
 
     views = views_of(settings)
     assert set(views) == {("3D", "phase"), ("TimeSeries", "area")}
-    assert views[("TimeSeries", "area")]["TimeAxis:view_range"] == {"start": 0, "end": ex5.STEPS}
+    assert views[("TimeSeries", "area")]["TimeAxis:view_range"] == opens_on(ex5.STEPS)
     camera = views[("3D", "phase")]
     target, eye = np.array(camera["EyeControls3D:look_target"]), np.array(camera["EyeControls3D:position"])
     assert eye[1] == pytest.approx(target[1]) and eye[2] > target[2], "straight down: v_x up the screen"
@@ -207,3 +207,29 @@ def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(ch
     tips = np.array(column(entities["/phase/axes/names"], "Points3D:positions")[0])
     assert names == ["x", "v_x"] and tips[0, 0] > 0 and tips[0, 1] == 0 and tips[1, 1] > 0 and tips[1, 0] == 0
     assert column(entities["/phase/key"], "Points3D:labels")[0] == [look.label for look in looks.values()]
+
+
+def test_the_area_plot_is_signed_with_round_off_as_a_labelled_floor(chapter_table, tmp_path):
+    """Up grows, down shrinks, on the floor stays: RK4's shrink and explicit Euler's growth point opposite ways,
+    and semi-implicit Euler's round-off lies flat on a grey line that says it is round-off."""
+    from test_recording import column, packed, read_recording
+
+    ex5.record(tmp_path / "blob.rrd", chapter_table)
+    _, entities, _ = read_recording(tmp_path / "blob.rrd")
+    curves = {}
+    for name, row in chapter_table.items():
+        series = entities[f"/area/{name}"]
+        assert column(series, "step") == list(range(ex5.STEPS + 1)), "from step 0, like the other plots"
+        curves[name] = np.ravel(column(series, "Scalars:scalars"))
+        with np.errstate(divide="ignore"):  # an area that did not change at all: -inf decades, drawn at 0
+            above = np.log10(np.abs(row["ratios"][1:])) - math.log10(ex5.SAME)  # decades above the floor, by hand
+        np.testing.assert_allclose(np.abs(curves[name][1:]), np.maximum(above, 0.0), atol=1e-12)
+    assert curves["euler"][-1] > 11 and (curves["euler"][1:] > 0).all(), "grows: up, from the first step"
+    assert curves["rk4"][-1] < -3 and (curves["rk4"] <= 0).all(), "shrinks: down"
+    assert (curves["semi_implicit"] == 0).all(), "stays: on the floor at every step"
+    floor = entities["/area/same"]
+    assert np.ravel(column(floor, "Scalars:scalars")).tolist() == [0.0, 0.0]
+    assert "round-off" in column(floor, "SeriesLines:names")[0][0]
+    assert column(floor, "SeriesLines:colors")[0] == [packed(course.GREY)], "grey: a reference, not an integrator"
+    widths = {name: column(entities[f"/area/{name}"], "SeriesLines:widths")[0][0] for name in chapter_table}
+    assert len(set(widths.values())) == len(widths), "lines on one another told apart by their widths"

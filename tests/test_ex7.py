@@ -339,39 +339,46 @@ def recording(tmp_path_factory, chapter):
 
 @pytest.mark.parametrize("system_name", shadow.SYSTEMS)
 def test_the_recording_holds_e_and_e_tilde_worst_so_far_at_every_step(recording, system_name):
-    from test_recording import column
+    """Each line is the worst change so far, drawn down to the run's round-off bound, the one grey line: a line
+    lying on it has moved no more than rounding can (the exercise's "roundoff")."""
+    from test_recording import column, packed
+
+    from curriculum.common import recording as course
 
     entities, _, chapter = recording
     run = chapter[system_name]
+    bound = np.log10(run["roundoff"])
     for entity, values in (("energy", run["energy"]), ("energy_shadow", run["shadow"])):
         batches = entities[f"/{system_name}/{entity}"]
         assert column(batches, "step") == list(range(shadow.STEPS + 1))
         logged = np.ravel(column(batches, "Scalars:scalars"))
         worst = np.maximum.accumulate(np.abs(values - values[0]) / abs(values[0]))
-        np.testing.assert_array_equal(logged, np.log10(np.maximum(worst, 1e-16)))
+        np.testing.assert_array_equal(logged, np.log10(np.maximum(worst, run["roundoff"])))
         assert np.all(np.diff(logged) >= 0), "a running maximum: round-off draws flat, never as noise"
     e_tilde = np.ravel(column(entities[f"/{system_name}/energy_shadow"], "Scalars:scalars"))
-    assert e_tilde[0] == -16.0  # nothing has moved at step 0: it sits on the floor
-    floor = entities[f"/{system_name}/roundoff_floor"]
-    assert np.ravel(column(floor, "Scalars:scalars")).tolist() == [-16.0, -16.0]
+    assert e_tilde[0] == bound  # nothing has moved at step 0: it sits on the floor
+    floor = entities[f"/{system_name}/a_roundoff"]
+    assert np.ravel(column(floor, "Scalars:scalars")).tolist() == [bound, bound]
     assert "round-off" in column(floor, "SeriesLines:names")[0][0]
-    bound = np.ravel(column(entities[f"/{system_name}/roundoff_bound"], "Scalars:scalars"))
-    assert bound.tolist() == [np.log10(run["roundoff"])] * 2
-    # the lesson at the last step: under the bound on the spring and the freefall, above it on the orbit
-    assert (e_tilde[-1] <= bound[0]) == (system_name != "orbit")
+    greys = [path for path, batches in entities.items() if path.startswith(f"/{system_name}/")
+             and column(batches, "SeriesLines:colors")[0] == [packed(course.GREY)]]
+    assert greys == [f"/{system_name}/a_roundoff"], "one grey line: no second grey to tell apart"
+    # the lesson at the last step: on the floor on the spring and the freefall, above it on the orbit
+    assert (e_tilde[-1] == bound) == (system_name != "orbit")
 
 
 def test_the_recording_opens_on_three_plots_of_the_whole_run(recording):
     import rerun.blueprint as rrb
-    from test_recording import views_of
+    from test_recording import opens_on, views_of
 
-    _, settings, _ = recording
+    _, settings, chapter = recording
     views = views_of(settings)
     assert set(views) == {("TimeSeries", name) for name in shadow.SYSTEMS}
     for (_, origin), props in views.items():
-        assert props["TimeAxis:view_range"] == {"start": 0, "end": shadow.STEPS}, f"{origin}: all the steps"
+        assert props["TimeAxis:view_range"] == opens_on(shadow.STEPS), f"{origin}: all the steps"
         low, high = props["ScalarAxis:range"]
-        assert low < -16.0 and high > 0.0, f"{origin}: from the floor to an error as large as the quantity"
+        floor = np.log10(chapter[origin]["roundoff"])
+        assert low < floor and high > 0.0, f"{origin}: from the floor to an error as large as the quantity"
     assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
     assert settings["/selection_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
     time_panel = settings["/time_panel"]
@@ -388,7 +395,7 @@ def test_the_recording_uses_the_course_palette(recording):
     colour = column(entities["/orbit/energy"], "SeriesLines:colors")[0][0]
     assert colour == packed(course.COLOURS["semi_implicit"])  # E is semi-implicit Euler's, in its colour
     e_tilde = column(entities["/orbit/energy_shadow"], "SeriesLines:colors")[0][0]
-    assert e_tilde in [packed(c) for c in course.SPARE_COLOURS]
+    assert e_tilde in [packed(c) for c in course.SPARE_COLOURS], "E~ is no integrator: a colour none of them has"
 
 
 def test_an_unwritable_recording_path_gets_one_line_before_measuring(tmp_path):

@@ -707,8 +707,8 @@ def test_finite_energies_whose_drift_overflows_are_reported_as_diverged(tmp_path
     assert code == 0 and err == ""  # a RuntimeWarning would have raised
     metrics = strict_json(tmp_path / "metrics.json")
     for name in ("euler", "semi_implicit"):
-        assert metrics["drift"][name]["diverged"] and metrics["drift"][name]["diverged_at_step"] == 1
-    assert "diverged: energy error non-finite from step 1" in out and "cannot judge" in out
+        assert metrics["drift"][name]["diverged"] and metrics["drift"][name]["energy_overflow_step"] == 1
+    assert "diverged: energy overflowed at step 1" in out and "cannot judge" in out
 
 
 @pytest.mark.parametrize("members", [3, 4])  # an odd and an even count: the median of two values can overflow

@@ -55,6 +55,11 @@ def column(batches, name):
     return rows
 
 
+def opens_on(last_step):
+    """A plot's time range: step 0 to the last, and course.END_ROOM past it, so the viewer labels the last step."""
+    return {"start": 0, "end": last_step + int(np.ceil(course.END_ROOM * last_step))}
+
+
 def views_of(settings):
     """{(class, origin): {archetype field: value, ...}} for every view in the blueprint."""
     views = {}
@@ -96,11 +101,15 @@ def test_each_body_travels_its_run_step_by_step_along_its_whole_path(recorded, s
             [positions[:, 0], velocities[:, 0], np.zeros(STEPS + 1)], axis=1)
         body = entities[f"/{view}/{name}/body"]
         assert column(body, "step") == list(range(STEPS + 1)), "one position per step, on the step timeline"
-        np.testing.assert_array_equal(np.concatenate(column(body, "Points3D:positions")), shown.astype(np.float32))
+        travelled = np.concatenate(column(body, "Points3D:positions"))
+        np.testing.assert_array_equal(travelled[:, :2], shown[:, :2].astype(np.float32))
+        lift = travelled[:, 2] - shown[:, 2].astype(np.float32)  # drawn a hair above or below the others
+        assert np.ptp(lift) < 1e-6, "the same lift at every step"
+        assert abs(lift[0]) < 0.01 * np.ptp(shown[:, :2], axis=0).max(), "a hair: under 1% of the path's size"
         assert column(body, "Points3D:colors")[0] == [packed(looks[name].colour)]
 
         (trail,) = column(entities[f"/{view}/{name}/trail"], "LineStrips3D:strips")[0]
-        np.testing.assert_array_equal(np.array(trail), shown.astype(np.float32))
+        np.testing.assert_array_equal(np.array(trail), travelled)
         assert column(entities[f"/{view}/{name}/trail"], "LineStrips3D:colors")[0] == [packed(looks[name].colour)]
 
 
@@ -207,7 +216,7 @@ def test_each_system_opens_on_its_own_views_and_every_plot_on_the_whole_run(reco
     for (kind, origin), props in views.items():
         if kind != "TimeSeries":
             continue
-        assert props["TimeAxis:view_range"] == {"start": 0, "end": STEPS}, f"{origin} opens on all the steps"
+        assert props["TimeAxis:view_range"] == opens_on(STEPS), f"{origin} opens on all the steps"
         low, high = props["ScalarAxis:range"]
         values = np.concatenate([np.ravel(column(batches, "Scalars:scalars"))
                                  for path, batches in entities.items() if path.startswith(f"/{origin}/")])
@@ -254,7 +263,7 @@ def test_long_runs_are_thinned_in_the_recording_but_not_in_the_metrics(tmp_path,
     assert column(entities["/orbit/euler/body"], "step") == engine.kept_steps(steps, 3).tolist()
     for (kind, origin), props in views_of(settings).items():
         if kind == "TimeSeries":
-            assert props["TimeAxis:view_range"] == {"start": 0, "end": steps}, f"{origin} opens on the whole run"
+            assert props["TimeAxis:view_range"] == opens_on(steps), f"{origin} opens on the whole run"
 
 
 def test_a_system_without_its_own_views_gets_the_energy_error_and_its_position_error():
@@ -382,7 +391,7 @@ def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
     assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
     views = views_of(settings)
     assert set(views) == {("TimeSeries", "orbit"), ("TimeSeries", "spring")}
-    assert views[("TimeSeries", "orbit")]["TimeAxis:view_range"] == {"start": 0, "end": 300}
+    assert views[("TimeSeries", "orbit")]["TimeAxis:view_range"] == {"start": 0, "end": 312}, "4% past the end"
     low, high = views[("TimeSeries", "orbit")]["ScalarAxis:range"]
     assert low < -0.99 and high > 0.99, "fitted to every value logged"
     assert column(entities["/orbit/verlet"], "SeriesLines:names")[0] == ["verlet"]
@@ -390,3 +399,120 @@ def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
              for row in b.column("Scalars:scalars").to_pylist()]
     assert drawn == [], "NaN is left out, not drawn"
     assert len(column(entities["/spring/semi_implicit"], "Scalars:scalars")) == 301
+
+
+# --- every recording the issue names, and the edges of the flags: framed, every integrator seen ---
+
+LISTED = {  # issue 24's recordings, made as a student makes them (the README's spring command included)
+    "orbit": ["--system", "orbit"],
+    "spring": ["--system", "spring"],
+    "spring at dt 0.05": ["--system", "spring", "--dt", "0.05"],
+    "freefall": ["--system", "freefall"],
+    "damped spring": ["--system", "damped_spring"],
+    "damped spring at b 300": ["--system", "damped_spring", "--damping", "300"],
+    "orbit at dt 0.5": ["--system", "orbit", "--dt", "0.5"],
+    "ensemble of 1000": ["--ensemble", "1000"],
+    "exercise 5": "ex5",
+    "exercise 7": "ex7",
+}
+EDGES = {  # where every integrator diverges, the damping limit, one step, a blow-up at the very first step
+    "spring at dt 3": ["--system", "spring", "--dt", "3"],
+    "damped spring at b 1e6": ["--system", "damped_spring", "--damping", "1e6"],
+    "orbit, 1 step": ["--system", "orbit", "--steps", "1"],
+    "ensemble, 1 step": ["--ensemble", "20", "--steps", "1"],
+    "spring at dt 1e300": ["--system", "spring", "--dt", "1e300", "--steps", "3"],
+    "orbit at dt 5": ["--system", "orbit", "--dt", "5"],
+}
+# where the grey exact motion must be drawn smooth; at dt 1e300 even its own samples are round-off (cos 2e300)
+SMOOTH = {*LISTED, "orbit at dt 5"}
+
+
+def made(case, tmp_path):
+    """(entities, blueprint settings, metrics.json or None) of one case's recording, made in this process."""
+    import json
+
+    from exercises import ex5_phase_blob as ex5
+    from exercises.support import shadow, shadow_recording
+
+    rrd = tmp_path / "case.rrd"
+    metrics = None
+    if case == "ex5":
+        ex5.record(rrd, ex5.measure(ex5.DT, ex5.STEPS))
+    elif case == "ex7":
+        rrd.write_bytes(shadow_recording.record({name: shadow.measure(name) for name in shadow.SYSTEMS}))
+    else:
+        assert engine.main([*case, "--out", str(tmp_path)]) == 0
+        rrd, metrics = tmp_path / engine.RECORDING_FILE, json.loads((tmp_path / engine.METRICS_FILE).read_text())
+    _, entities, settings = read_recording(rrd)
+    return entities, settings, metrics
+
+
+def is_grey(packed_colour):
+    r, g, b = (packed_colour >> 24) & 0xFF, (packed_colour >> 16) & 0xFF, (packed_colour >> 8) & 0xFF
+    return r == g == b
+
+
+def must_frame(entities, origin, labels):
+    """The points a spatial view must frame, as the recording holds them: its exact motion where it draws one,
+    or else every path of a run whose key names no blow-up (an ensemble's members, exercise 5's blobs)."""
+    if f"/{origin}/exact" in entities:
+        return [np.array(strip) for strip in column(entities[f"/{origin}/exact"], "LineStrips3D:strips")[0]]
+    bounded = [name for name, label in labels.items() if "overflowed" not in label]
+    return [np.array(strip) for path, batches in entities.items() for name in bounded
+            if path in (f"/{origin}/{name}", f"/{origin}/{name}/trail")
+            for strips in column(batches, "LineStrips3D:strips") for strip in strips]
+
+
+def key_labels(entities, origin, names):
+    """{integrator: its label in the view's key}, each found by its colour."""
+    key = entities[f"/{origin}/key"]
+    label_of = dict(zip(column(key, "Points3D:colors")[0], column(key, "Points3D:labels")[0], strict=True))
+    return {name: label_of[packed(look.colour)] for name, look in course.looks(names).items()}
+
+
+@pytest.mark.parametrize("case", [*LISTED, *EDGES])
+def test_every_recording_frames_what_stays_bounded_and_shows_every_integrator(case, tmp_path):
+    """Issue 24, from what each recording holds: every spatial view's camera frames the exact motion (or the runs
+    that stay bounded), and the exact motion fills a good part of it (not a dot in a corner, not off the edge);
+    a run that blew up says so in the key with the step metrics.json names; every integrator in a plot has a
+    value to draw; lines that could lie on one another differ in width; and no empty column (which crashes the
+    viewer) is ever sent. pytest never opens a viewer: tools/screenshots.py shows the same recordings."""
+    entities, settings, metrics = made({**LISTED, **EDGES}[case], tmp_path)
+    listed = case in LISTED
+    for path, batches in entities.items():
+        assert all(batch.num_rows > 0 for batch in batches), f"{path}: an empty column (Rerun 0.41's viewer panics)"
+    integrators = list(metrics["drift"]) if metrics else list(engine.CHAPTER_INTEGRATORS)
+    for (kind, origin), props in views_of(settings).items():
+        if kind == "3D":
+            names = integrators if f"/{origin}/key" in entities else []
+            labels = key_labels(entities, origin, names) if names else {}
+            for name, label in labels.items():  # the step a run blew up at: the table's and metrics.json's
+                step = metrics and metrics["drift"][name].get("energy_overflow_step")
+                if metrics and origin != "ensemble_paths":
+                    assert (f"energy overflowed at step {step:,}" in label) if step else ("overflowed" not in label)
+            points = np.concatenate([p.reshape(-1, 3) for p in must_frame(entities, origin, labels)])
+            target, eye = np.array(props["EyeControls3D:look_target"]), np.array(props["EyeControls3D:position"])
+            half = (eye[2] - target[2]) / 2.0  # the least the camera frames either side of its target
+            assert (np.abs(points[:, :2] - target[:2]) <= half).all(), f"{case}, {origin}: all of it in the frame"
+            size = np.ptp(points[:, :2], axis=0).max()
+            if listed:
+                assert size >= 0.4 * half, f"{case}, {origin}: the motion fills the frame, {size:.3g} of {half:.3g}"
+            if case in SMOOTH and f"/{origin}/exact" in entities:  # a curve, not chords across the orbit
+                chord = np.abs(np.diff(points[:, :2], axis=0)).max()
+                assert chord <= 0.1 * size, f"{case}: the exact motion's points {chord:.3g} apart, {size:.3g} across"
+            trails = [f"/{origin}/{name}/trail" for name in names if f"/{origin}/{name}/trail" in entities]
+            radii = [column(entities[trail], "LineStrips3D:radii")[0][0] for trail in trails]
+            assert len(set(radii)) == len(radii), f"{case}, {origin}: trails that coincide still show"
+        else:
+            lines = {path: batches for path, batches in entities.items() if path.startswith(f"/{origin}/")
+                     and not is_grey(column(batches, "SeriesLines:colors")[0][0])}
+            assert lines, f"{case}, {origin}: a plot with nothing but references"
+            for path, batches in lines.items():
+                values = [v for b in batches if "Scalars:scalars" in b.schema.names
+                          for v in np.ravel(b.column("Scalars:scalars").to_pylist())]
+                if listed:
+                    assert np.isfinite(values).any(), f"{case}: {path} has no value to draw"
+            by_name = {path.rsplit("/", 1)[1]: batches for path, batches in lines.items()}
+            if set(by_name) <= set(integrators) and len(by_name) > 1:  # one line per integrator: layered
+                widths = [column(batches, "SeriesLines:widths")[0][0] for batches in by_name.values()]
+                assert len(set(widths)) == len(widths), f"{case}, {origin}: lines that coincide still show"

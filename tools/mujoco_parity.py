@@ -32,7 +32,7 @@ def print_damped_parity(dampings=(0.5, 4.0, 300.0)) -> None:
             blown = np.flatnonzero(~np.isfinite(ours[mine][:, 0]))
             upto = min(len(positions), reset_at or len(positions), blown[0] if blown.size else len(positions))
             gap = np.abs(ours[mine][:upto] - positions[:upto]).max()  # up to a reset or a blow-up
-            notes = [f"ours non-finite from step {blown[0]:,}; compared before that"] if blown.size else []
+            notes = [f"our positions non-finite from step {blown[0]:,}; compared before that"] if blown.size else []
             if reset_at is not None:
                 notes.append(f"MuJoCo blew up and reset at step {reset_at:,}; compared before that")
             print(f"damped_spring b {b:<4g} mujoco {theirs:<12} vs {mine:<14} max |q_ours - q_mujoco| = {gap:.3g}"

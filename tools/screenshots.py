@@ -3,7 +3,7 @@
 pytest does not collect this file (it is not named test_*). Run it from the repo root with the project's
 environment active:
 
-    python tools/screenshots.py            # seven PNGs in outputs/screenshots/, then look at every one
+    python tools/screenshots.py            # eleven PNGs in outputs/screenshots/, then look at every one
     python tools/screenshots.py ex5 spring # some of them
     python tools/screenshots.py --docs     # also refresh the README's pictures in docs/
 
@@ -25,16 +25,22 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 WINDOW = (1600, 1000)  # logical points; the viewer renders at 2x, so the PNG is 3200 x 2000
 # name: the command that writes the recording ({out} is a scratch folder), and the recording it writes there.
-# The first two are the README's pictures.
+# The first two are the README's pictures; then every recording issue 24 names (tests/test_recording.py's LISTED).
 CASES = {
     "orbit": (["engine.py", "--system", "orbit", "--out", "{out}"], "engine.rrd"),
     "freefall": (["engine.py", "--system", "freefall", "--out", "{out}"], "engine.rrd"),
     "spring": (["engine.py", "--system", "spring", "--out", "{out}"], "engine.rrd"),
+    "spring-dt0.05": (["engine.py", "--system", "spring", "--dt", "0.05", "--out", "{out}"], "engine.rrd"),
     "damped_spring": (["engine.py", "--system", "damped_spring", "--out", "{out}"], "engine.rrd"),
-    "orbit-ensemble-200": (["engine.py", "--system", "orbit", "--ensemble", "200", "--out", "{out}"], "engine.rrd"),
+    "damped_spring-300": (["engine.py", "--system", "damped_spring", "--damping", "300", "--out", "{out}"],
+                          "engine.rrd"),
+    "orbit-dt0.5": (["engine.py", "--system", "orbit", "--dt", "0.5", "--out", "{out}"], "engine.rrd"),
+    "orbit-ensemble-1000": (["engine.py", "--system", "orbit", "--ensemble", "1000", "--out", "{out}"], "engine.rrd"),
     "orbit-200k": (["engine.py", "--system", "orbit", "--steps", "200000", "--out", "{out}"], "engine.rrd"),
     "ex5": (["-m", "exercises.ex5_phase_blob", "--predict", "euler=grows, semi_implicit=stays, rk4=shrinks",
              "--rrd", "{out}/ex5_blob.rrd"], "ex5_blob.rrd"),
+    "ex7": (["-m", "exercises.ex7_shadow_energy", "--predict", "spring=roundoff, orbit=smaller, freefall=roundoff",
+             "--rrd", "{out}/ex7_shadow.rrd"], "ex7_shadow.rrd"),
 }
 DOCS = {"orbit": "recording-orbit.png", "freefall": "recording-freefall.png"}
 DOCS_WIDTH = 1200  # README pictures are scaled down and palette-quantized to stay small

@@ -20,10 +20,14 @@ A recording in a few lines (a time series per name; exercise 7's shape):
 - `log_series(stream, entity, steps, values, look, width=None)`: one line on the `step` timeline, in its
   colour, named in the legend; non-finite values are left out. Returns the values it logged.
 - `time_series(origin, name, last_step, values, legend="RightBottom")`: a plot of everything under
-  `origin`, opening on steps 0..last_step, its y range fitted to `values` (what log_series returned).
+  `origin`, opening on steps 0..last_step (and a little past, so the last step's number shows on the axis),
+  its y range fitted to `values` (what log_series returned). `layered_widths` lets lines that lie on one
+  another all show.
 - `from_above(origin, name, paths)`: a flat plot drawn in a 3D view seen from straight above (Rerun's 2D
-  views point y down), its camera framing every drawable point of `paths`. `log_axes` draws its axes,
-  named past their tips; `log_key` a key of coloured dots and labels beside the paths (frame it too).
+  views point y down), its camera framing every drawable point of `paths`. Frame it on what stays bounded:
+  `near(reference, runs)` keeps the runs that stay within REACH times the reference's size (the exact
+  motion's); the others are seen leaving. `log_axes` draws its axes, named past their tips; `log_key` a
+  key of coloured dots and labels beside the paths (frame it too).
 - `opening(story, last_step)`: the Blueprint to send: `story` (a view, a list of views to stack, or an
   rrb.Horizontal/Vertical/Grid of views) with the panels closed and the cursor on the last step; play
   replays the run in about 20 s.
@@ -53,6 +57,9 @@ LABELS = {"euler": "explicit Euler", "semi_implicit": "semi-implicit Euler", "rk
           "implicit": "implicit (damping)"}
 SPARE_COLOURS = [colour for colour in PALETTE.values() if colour not in COLOURS.values()]  # for new names
 PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
+FEW_POINTS = 50  # a plot's line with this many values or fewer also marks each one
+END_ROOM = 0.04  # a plot's time axis runs this much past the last step, so the viewer labels that step too
+REACH = 2.0  # a spatial view frames the runs that stay within this many times the exact motion's size
 DRAW_LIMIT = 1e30  # Rerun stores float32 (up to 3.4e38): we draw coordinates below this, leaving headroom
 # for the camera's distance and the labels' lifts; a diverged run's inf and NaN are never drawn
 
@@ -124,7 +131,10 @@ def on_steps(steps):
 
 def log_series(stream, entity: str, steps, values, look: Look, width: float | None = None):
     """One line on the `step` timeline in look's colour, named look.label in the legend. Non-finite
-    values (a diverged run, the log of an exact zero) are left out. Returns the values logged."""
+    values (a diverged run, the log of an exact zero) are left out; a line of FEW_POINTS values or fewer
+    marks each one (a single value draws no line), a flat two-point reference excepted; a line with none left
+    is named in the legend and sends no column (three empty columns in one recording crash Rerun 0.41's
+    viewer). Returns the values logged."""
     import numpy as np
     import rerun as rr
 
@@ -132,7 +142,12 @@ def log_series(stream, entity: str, steps, values, look: Look, width: float | No
     style = rr.SeriesLines(colors=[look.colour], names=[look.label], widths=None if width is None else [width])
     stream.log(entity, style, static=True)
     shown = np.isfinite(values)
-    stream.send_columns(entity, indexes=on_steps(steps[shown]), columns=rr.Scalars.columns(scalars=values[shown]))
+    level = np.count_nonzero(shown) == 2 and np.ptp(values[shown]) == 0.0  # a reference across the run: no marks
+    if 0 < np.count_nonzero(shown) <= FEW_POINTS and not level:  # a short run: mark each value (one draws no line)
+        marker = rr.SeriesPoints(colors=[look.colour], names=[look.label], marker_sizes=[3.0 + (width or 1.0)])
+        stream.log(entity, marker, static=True)
+    if shown.any():
+        stream.send_columns(entity, indexes=on_steps(steps[shown]), columns=rr.Scalars.columns(scalars=values[shown]))
     return values[shown]
 
 
@@ -159,13 +174,15 @@ def padded(values, margin: float = 0.05):
 
 
 def time_series(origin: str, name: str, last_step: int, values=None, legend: str = "RightBottom", y_range=None):
-    """A plot of every series under `origin`, opening on the whole run (step 0 to last_step), its y range
-    fitted to `values` (an array or a list of arrays) or given as y_range; hovering shows every curve."""
+    """A plot of every series under `origin`, opening on the whole run (step 0 to last_step, and END_ROOM past
+    it: the viewer labels its grid at round steps, #1000 and #2000 on the chapter's run, and one at the very
+    edge would be cut off), its y range fitted to `values` (an array or a list of arrays) or given as y_range;
+    hovering shows every curve."""
     import rerun as rr
     import rerun.blueprint as rrb
 
-    whole_run = rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seq=0),
-                             end=rrb.TimeRangeBoundary.absolute(seq=int(last_step)))
+    end = int(last_step) + math.ceil(END_ROOM * int(last_step))
+    whole_run = rr.TimeRange(start=rrb.TimeRangeBoundary.absolute(seq=0), end=rrb.TimeRangeBoundary.absolute(seq=end))
     return rrb.TimeSeriesView(origin=origin, name=name, axis_x=rrb.TimeAxis(view_range=whole_run),
                               axis_y=rrb.ScalarAxis(range=y_range or padded(values if values is not None else [])),
                               plot_legend=rrb.PlotLegend(corner=legend),
@@ -193,6 +210,22 @@ def extent(paths):
     return points.min(axis=0), points.max(axis=0)
 
 
+def near(reference, paths, reach: float = REACH) -> list:
+    """The paths ((..., 3) arrays) to frame with `reference` (the exact motion, or the runs that stay bounded):
+    each whose every point is drawable and, in x and y, within `reach` times the reference's half-width of
+    its centre. A path that goes further is left out of the framing: the view shows it leaving."""
+    import numpy as np
+
+    low, high = extent(reference)
+    centre, half = (low + high)[:2] / 2.0, float(max(high[0] - low[0], high[1] - low[1])) / 2.0
+    kept = []
+    for path in paths:
+        points = np.reshape(path, (-1, 3))
+        if drawable(points).all() and (np.abs(points[:, :2] - centre) <= reach * half).all():
+            kept.append(path)
+    return kept
+
+
 def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | None = 0.5, margin: float = 1.2):
     """A 3D view of `origin` whose camera frames every drawable point of `paths`, looking down on z = 0.
 
@@ -213,24 +246,30 @@ def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | N
 def log_key(stream, entity: str, looks: dict, paths):
     """A spatial view's key: one dot per name in its colour, its label under it, in a column just right of
     every drawable point of `paths`, from their top edge down. Fixed in the plane, so no label ever sits on
-    a path or on another label however the bodies crowd. Returns the key's points, for from_above()."""
+    a path or on another label however the bodies crowd. A label's note after ': ' (the step a run blew up
+    at) goes on a line of its own. Returns the key's points, for from_above()."""
     import numpy as np
     import rerun as rr
 
     low, high = extent(paths)
     span = float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
-    gap = min(0.2 * span, float(high[1] - low[1] or span) / max(len(looks), 1))
+    # rows share the paths' height, but never closer than a tenth of the view: a flat frame (a phase plane
+    # whose velocity barely moves) would pile the labels on one another
+    gap = max(min(0.2 * span, float(high[1] - low[1] or span) / max(len(looks), 1)), 0.1 * span)
     names = list(looks)
     positions = np.array([[float(high[0]) + 0.15 * span, float(high[1]) - i * gap, 0.0] for i in range(len(names))])
-    key = rr.Points3D(positions, colors=[looks[n].colour for n in names], labels=[looks[n].label for n in names],
+    labels = [looks[n].label.replace(": ", "\n", 1) for n in names]
+    key = rr.Points3D(positions, colors=[looks[n].colour for n in names], labels=labels,
                       radii=rr.components.Radius.ui_points(6.0), show_labels=True)
     stream.log(entity, key, static=True)
     return positions
 
 
-def log_axes(stream, entity: str, low, high, names: tuple[str, str]) -> None:
+def log_axes(stream, entity: str, low, high, names: tuple[str, str], scales=(1.0, 1.0)) -> None:
     """Two axes through the origin spanning low..high (x, y), each named just past its positive tip,
-    with ticks at round numbers. Each name sits beyond its own tip, so the two never meet."""
+    with ticks at round numbers. Each name sits beyond its own tip, so the two never meet. An axis much
+    shorter than the other gets ticks as far apart as a quarter of the longer one would (often none), so
+    its labels never crowd. An axis drawn `scales[i]` times its true size labels its ticks in true units."""
     import rerun as rr
 
     grey = [GREY]
@@ -242,8 +281,9 @@ def log_axes(stream, entity: str, low, high, names: tuple[str, str]) -> None:
                        show_labels=True)
     stream.log(f"{entity}/names", tips, static=True)
     ticks = []
+    longest = max(abs(x0), abs(x1), abs(y0), abs(y1))
     for axis, (start, end) in enumerate(((x0, x1), (y0, y1))):
-        length = max(abs(start), abs(end))
+        length = max(abs(start), abs(end), 0.25 * longest)
         unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0  # 1 to 9 ticks each way
         if length < 2.0 * unit:  # 1.0 to 1.99: ticks every half unit, so that one lands inside the tip
             unit /= 2.0
@@ -252,5 +292,5 @@ def log_axes(stream, entity: str, low, high, names: tuple[str, str]) -> None:
             if k and not at_tip:
                 ticks.append([k * unit if axis == 0 else 0.0, k * unit if axis == 1 else 0.0, 0.0])
     marks = rr.Points3D(ticks, radii=rr.components.Radius.ui_points(3.0), colors=grey,
-                        labels=[f"{t[0] + t[1]:g}" for t in ticks], show_labels=True)
+                        labels=[f"{t[0] / scales[0] + t[1] / scales[1]:g}" for t in ticks], show_labels=True)
     stream.log(f"{entity}/ticks", marks, static=True)

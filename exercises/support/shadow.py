@@ -16,7 +16,6 @@ from engine_referee import dot3, relative_energy_error
 SEED, DT, STEPS = 0, 0.01, 2000  # the chapter's run: 20 s of simulated time
 SYSTEMS = ("spring", "orbit", "freefall")  # the spring first: exercise 5's quadratic is where E~ starts
 ROUNDOFF_ULPS_PER_STEP = 8  # see roundoff_floor()
-FLOOR = 1e-16  # the recording draws anything smaller here: below it is round-off of a number near 1
 
 
 def shadow_energy(system: dict, q, v, dt: float):
@@ -106,9 +105,10 @@ def spring_of(k: float, m: float) -> dict:
             "force": force, "energy": energy}
 
 
-def worst_so_far(values) -> np.ndarray:
-    """The recording's curve: log10 of the worst |x - x0| / |x0| up to each step, floored at FLOOR.
+def worst_so_far(values, floor: float) -> np.ndarray:
+    """The recording's curve: log10 of the worst |x - x0| / |x0| up to each step, floored at `floor` (the run's
+    round-off bound).
 
     The running maximum never comes down, so round-off reads as a flat line instead of noise, and a
-    quantity kept exactly sits on the floor."""
-    return np.log10(np.maximum(np.maximum.accumulate(relative_change(values)), FLOOR))
+    quantity that moved no more than rounding can sits on the floor."""
+    return np.log10(np.maximum(np.maximum.accumulate(relative_change(values)), floor))
