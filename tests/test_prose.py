@@ -70,8 +70,7 @@ def test_the_measure_is_the_issues_tool_where_it_is_installed():
 
 
 @pytest.mark.parametrize("page, most_words", [
-    pytest.param("README.md", 900,
-                 marks=pytest.mark.xfail(strict=True, reason="README.md is rewritten after issue 24's pictures")),
+    ("README.md", 900),
     ("exercises/README.md", 800)])
 def test_a_students_page_reads_short(page, most_words):
     """At most `most_words` words of prose, every paragraph at most 2 numerals a sentence on average, no sentence
