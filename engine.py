@@ -296,7 +296,7 @@ def build_metrics(system_name, dt, steps, seed, drifts, damping=None, solution=N
 # --- the run: long runs in pieces, and what main() keeps of them ---
 
 MAX_POINTS_PER_SERIES = 100_000  # past this the kept states (and the recording) thin to every k-th step
-PIECE_VALUES = 100_000  # numbers per piece of states simulate_long() holds at once
+PIECE_VALUES = 2_000_000  # numbers per piece of states simulate_long() holds at once: 16 MB an array
 
 
 def simulate_long(step_fn, system: dict, dt: float, steps: int, every: int = 1, progress=None):
@@ -408,7 +408,7 @@ def main(argv=None) -> int:
     names = list(integrators) if args.integrator == "all" else [args.integrator]
     every = max(math.ceil((steps + 1) / MAX_POINTS_PER_SERIES), ensembles.ensemble_every(steps, len(seeds)))
     kept = kept_steps(steps, every)  # the states kept for the recording; energies are kept at every step
-    # a member's step in a batch costs about a hundredth of a single run's, hence the 100
+    # a member's step in a batch costs a hundredth of a single run's or less, hence the 100
     show_progress = not args.smoke and steps * len(names) * (len(seeds) / 100 if args.ensemble else 1) >= PROGRESS_FROM
     runs, drifts = {}, {}
     for name in names:

@@ -16,8 +16,9 @@ energy error stays in a band on a motion that comes back), chapter (one of the c
 verdict and the exercises compare by name) and needs: what a system must
 declare for the step to be offered on it, a fact that must be true (velocity_free, for a method whose order
 holds only for forces that ignore the velocity) or a value the step takes as an argument (dforce_dv, for
-implicit_step). `integrators_for(system)` offers exactly those; tests/test_engine.py measures every
-declared figure and fact.
+implicit_step). `integrators_for(system)` offers exactly those. tests/test_declarations.py measures every
+declared figure and fact (the order in tests/test_closed_form.py and tests/test_damping.py, potential in
+tests/test_engine.py).
 
 It imports numpy and nothing of the project's: engine.py imports it.
 """
