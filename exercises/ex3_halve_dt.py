@@ -29,7 +29,7 @@ from engine_referee import distance
 
 SIM_SECONDS = 5.0  # not a whole number of periods: at one, some error terms cancel and the ladder zigzags
 # Each ladder starts where its method's error is already small. RK4's is so small by its last rungs
-# that rounding reaches the digits the table prints: those factors show as (round-off), see FLOOR.
+# that its finest errors fall below FLOOR, where a factor would start to show rounding: those show as (<5e-11).
 LADDERS = {"euler": [0.01 / 2**k for k in range(6)], "semi_implicit": [0.01 / 2**k for k in range(6)],
            "rk4": [0.1 / 2**k for k in range(6)]}
 FACTORS = [1, 2, 4, 8, 16, 32]
@@ -76,12 +76,13 @@ def print_ladder(errors: dict) -> None:
     for measure_name, by_integrator in errors.items():
         what = "final position error |q - q_exact|" if measure_name == "position" else "energy error max|E-E0|/|E0|"
         print(f"\n{what}: shrink factor per halving of dt")
+        below = f"(<{FLOOR[measure_name]:g})"  # the finer error is below the floor: no factor shown
         for name, rung_errors in by_integrator.items():
             ladder = LADDERS[name]
             cells = shrink_factors(rung_errors, FLOOR[measure_name])
             span = f"dt {ladder[0]:g} -> {ladder[-1]:g}:"
             print(f"  {name:<15}{span:<24}"
-                  + "".join(f"{f:>8.2f}" if f else f"{'(round-off)':>12}" for f in cells))
+                  + "".join(f"{f:>8.2f}" if f else f"{below:>12}" for f in cells))
 
 
 def lesson(system_name: str, errors: dict) -> str:

@@ -154,7 +154,7 @@ def main(argv=None) -> int:
     explain(
         "",
         "At a coarse dt RK4's error leaves the band soon, as measured above, but its creep shrinks far faster with"
-        f" dt than the band does. At the chapter's dt = {CHAPTER_DT} the crossover, measured in the same batch, is"
+        f" dt than the band does. At the chapter's dt = {CHAPTER_DT} the crossover, estimated from the same batch, is"
         f" about {by_creep:.1e} orbits: millions of times the chapter's run, not the thousand times the chapter"
         " says. RK4's error is unbounded and semi-implicit Euler's is not, so a long enough run always ends with"
         " RK4 behind; at small steps, long enough is very long.",

@@ -99,7 +99,7 @@ def main(argv=None) -> int:
             " multiplies v by 1 - c: past c = 2 it flips sign and grows. RK4's four samples stretch that limit to"
             f" c = {bounds['rk4'][1]:.3f} on this spring, so it survives here. The implicit step takes the damping at"
             " the new velocity and divides v by 1 + c: bounded for any damping. MuJoCo's default Euler does the"
-            " same on a damped joint. More accurate per step is not more stable.",
+            " same on a damped joint. What keeps a step bounded is where it takes the damping, not its order.",
             more=lambda: the_whole_story(c, w, bounds))
     return 0
 

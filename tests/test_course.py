@@ -237,14 +237,27 @@ def test_the_board_counts_to_seven_with_the_next_command_at_each_step(tmp_path, 
     assert loaded.stdout.splitlines()[-1] == "[]"
 
 
-def test_a_code_exercise_changed_since_it_was_solved_says_so(tmp_path, monkeypatch):
-    monkeypatch.setenv("COURSE_JOURNAL", str(tmp_path / "journal.jsonl"))
-    journal.checked(EXERCISES / "ex2_integrators.py", SOLUTION, {"semi_implicit_step": True, "rk4_step": True})
-    said, done, _ = course.status(journal.load(), 2, "ex2_integrators", "code")
-    assert said.endswith(", but the file has changed since") and not done  # the stub is not the solution
-    journal.checked(EXERCISES / "ex2_integrators.py", STUB, {"semi_implicit_step": True, "rk4_step": False})
-    said, done, _ = course.status(journal.load(), 2, "ex2_integrators", "code")
-    assert said.endswith(": semi_implicit_step solved, rk4_step not yet") and not done
+def test_a_code_exercise_changed_since_it_was_solved_says_so(tmp_path):
+    """The board follows the checks of the exercise's own file: checking another file (a scratch copy, as
+    exercises/README.md invites) leaves a solved exercise solved; changing the own file since says so."""
+    root, path = scratch_checkout(tmp_path), tmp_path / "journal.jsonl"
+    mine = root / "exercises" / "ex2_integrators.py"
+
+    def board_row():
+        return next(line for line in run("exercises", journal_path=path, cwd=root).stdout.splitlines()
+                    if line.startswith("  2."))
+
+    shutil.copyfile(SOLUTION, mine)
+    assert run("exercises.check_ex2", journal_path=path, cwd=root).returncode == 0
+    assert " solved " in board_row() + " "
+    scratch = run("exercises.check_ex2", str(REPO / "tests" / "planted" / "rk4_equal_weights.py"),
+                  journal_path=path, cwd=root)
+    assert scratch.returncode == 1 and [r["own"] for r in lines(path) if r["kind"] == "check"] == [True, False]
+    assert " solved " in board_row() + " " and "changed" not in board_row()
+    shutil.copyfile(STUB, mine)
+    assert board_row().endswith(", but the file has changed since")
+    assert run("exercises.check_ex2", journal_path=path, cwd=root).returncode == 1
+    assert board_row().endswith(": semi_implicit_step not yet, rk4_step not yet")
 
 
 def test_the_checker_records_each_check_and_ends_with_its_next_line(tmp_path):

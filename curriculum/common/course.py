@@ -103,7 +103,7 @@ def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
     """(what the journal says of an exercise since its last reset, whether it is done, its next command)."""
     mine = book.of(number)
     if kind == "code":
-        checks = [r for r in mine if r.get("kind") == "check"]
+        checks = [r for r in mine if r.get("kind") == "check" and r.get("own", True)]  # not a scratch file's
         command = exercise.command(module, kind)
         if not checks:
             return "not tried", False, command
@@ -236,7 +236,7 @@ def _row(student: str, book, files: dict, titles: dict, number: int, module: str
            "resets": sum(r.get("kind") == "reset" for r in mine), "right": "", "items": "", "reason": "",
            "recorded": "", "solved": "", "points": 0, "detail": ""}
     if kind == "code":
-        checks = [r for r in mine if r.get("kind") == "check"]
+        checks = [r for r in mine if r.get("kind") == "check" and r.get("own", True)]  # not a scratch file's
         solved, detail = _check_again(module, files[f"{module}.py"])
         row.update(attempts=len(checks), solved="yes" if solved else "no", points=int(solved), detail=detail)
         if checks:

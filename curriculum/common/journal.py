@@ -206,12 +206,13 @@ def _why(error: OSError) -> str:
 
 
 def checked(default: Path, path: Path, parts: dict) -> None:
-    """The checker harness's record of one check (solved or not, which parts, the file's hash), then its run's last
-    line. `default` is the exercise's own file, which says which exercise this is."""
+    """The checker harness's record of one check (solved or not, which parts, the file's hash, whether it is the
+    exercise's own file or another one), then its run's last line. `default` is the exercise's own file, which
+    says which exercise this is."""
     number = int(exercise.EXERCISE_FILE.fullmatch(default.name).group(1))
     digest = hashlib.sha256(own_file(Path(path)) or b"").hexdigest()
     append(lambda book: {"kind": "check", "ex": number, "solved": bool(parts) and all(parts.values()),
-                         "parts": parts, "sha256": digest})
+                         "parts": parts, "sha256": digest, "own": Path(path).resolve() == Path(default).resolve()})
     if interrupts.active():
         print(exercise.next_line(EXERCISES, number))
 

@@ -358,7 +358,8 @@ def explain(*lines: str, more=None, width: int = 100) -> None:
     for line in lines:
         indent = "  " if line.startswith("- ") else ""
         code = line.startswith("    ")
-        print(line if code else textwrap.fill(line, width=width, subsequent_indent=indent) if line else "")
+        wrapped = textwrap.fill(line, width=width, subsequent_indent=indent, break_on_hyphens=False)  # semi-implicit
+        print(line if code else wrapped if line else "")
     if more is None:
         return
     if _asked.get("more"):
