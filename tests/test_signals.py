@@ -38,17 +38,21 @@ def programs(out: Path) -> dict:
 
 # Runs a program as `python engine.py ...` or `python -m exercises...` does, with a signal sent at one moment:
 # `import:NAME` from inside the import of NAME, `exit:NAME` from an exit handler registered when NAME is
-# imported (after the guard: so it runs after main() returned and before the guard's own last handler).
+# imported (after the guard: so it runs after main() returned and before the guard's own last handler),
+# `del:NAME` from inside a __del__ run while NAME is imported (where Python swallows what a handler raises).
 AT_A_MOMENT = textwrap.dedent("""
     import atexit, os, runpy, signal, sys
     signame, moment, *argv = sys.argv[1:]
     when, module = moment.split(":")
     send = lambda: os.kill(os.getpid(), getattr(signal, signame))
+    class Collected:
+        def __del__(self):
+            send()
     class SignalAt:
         def find_spec(self, name, path=None, target=None):
             if name == module:
                 sys.meta_path.remove(self)
-                send() if when == "import" else atexit.register(send)
+                {"import": send, "exit": lambda: atexit.register(send), "del": Collected}[when]()
     sys.meta_path.insert(0, SignalAt())
     if argv[0] == "-m":
         sys.argv = argv[1:]
@@ -94,6 +98,16 @@ def test_a_signal_once_main_loads_numpy_random_is_one_line(signame, tmp_path):
     result = at_a_moment(signame, "import:numpy.random", programs(tmp_path)["engine.py"])
     assert_one_line(result, code, f"{word}: no file was written")
     assert result.stdout.startswith("[ch3.3-engine]")  # main() had begun: the banner is its first line
+
+
+@pytest.mark.parametrize("signame", EXITS)
+def test_a_signal_inside_a_del_or_a_weakref_callback_is_one_line(signame, tmp_path):
+    """Raised there, Ctrl-C would be printed as "Exception ignored in ..." and the run would go on to exit 0
+    (seen once when a Ctrl-C landed in importlib's module-lock callback)."""
+    code, word = EXITS[signame]
+    result = at_a_moment(signame, "del:numpy.random", programs(tmp_path)["engine.py"])
+    assert_one_line(result, code, f"{word}: no file was written")
+    assert list(tmp_path.iterdir()) == []
 
 
 AFTER = {  # what each program has written when main() returns

@@ -333,17 +333,6 @@ def write_atomic(path: Path, data: bytes | str) -> None:
     write_run(Path(path).parent, {Path(path).name: data})
 
 
-def read_run(folder: Path, names) -> dict:
-    """{name: bytes} of a run's files, read while no writer is between its renames (a shared lock)."""
-    with _locked(Path(folder), shared=True) as dir_fd:
-        files = {}
-        for name in names:
-            fd = os.open(**_at(Path(folder), dir_fd, name), flags=os.O_RDONLY | NOFOLLOW)
-            with os.fdopen(fd, "rb") as file:
-                files[name] = file.read()
-        return files
-
-
 def _kept(folder: Path, names) -> str:
     if len(names) == 1:
         return f"{_p(folder / names[0])} was left as it was"
@@ -355,29 +344,26 @@ class _FolderGone(Exception):
 
 
 @contextlib.contextmanager
-def _locked(folder: Path, shared: bool = False):
+def _locked(folder: Path):
     """Hold flock on the folder's own descriptor: writers take turns, and no lock file is left behind.
 
     Waiting for the lock can be interrupted (Ctrl-C, SIGTERM). Where flock is not supported
     (Windows, some network file systems) the write goes ahead unlocked: each file is still atomic.
-    Yields the folder's descriptor, or None where names are used by path (see BY_FOLDER).
+    Yields the folder's descriptor, or None where names are used by path (see BY_FOLDER). A reader who
+    takes a shared flock on the folder never sees one run's file beside another's.
     """
     if not BY_FOLDER:
         if not os.path.isdir(folder):
-            if shared:
-                raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(folder))
             raise _FolderGone
         yield None
         return
     try:
         dir_fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
     except FileNotFoundError:
-        if shared:
-            raise
         raise _FolderGone from None
     try:
         try:
-            fcntl.flock(dir_fd, fcntl.LOCK_SH if shared else fcntl.LOCK_EX)
+            fcntl.flock(dir_fd, fcntl.LOCK_EX)
         except OSError as error:
             if error.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.EINVAL, errno.EBADF):
                 raise
@@ -442,10 +428,9 @@ def _replace_together(folder: Path, dir_fd: int | None, files: dict) -> None:
                 if dir_fd is not None:  # (by path, on Windows, a folder cannot be opened to sync)
                     os.fsync(dir_fd)  # the renames themselves reach the disk
             except OSError as error:
-                if error.errno in (errno.EINVAL, errno.EBADF):  # file systems that cannot sync a folder
-                    return
-                raise OutputError(f"{' and '.join(files)} in {_p(folder)} were replaced, but the folder could not be "
-                                  f"synced to disk ({_says(error)})") from None
+                if error.errno not in (errno.EINVAL, errno.EBADF):  # (some file systems cannot sync a folder)
+                    raise OutputError(f"{' and '.join(files)} in {_p(folder)} were replaced, but the folder could"
+                                      f" not be synced to disk ({_says(error)})") from None
     finally:
         with signals_held():
             for temp in temps.values():
@@ -542,10 +527,7 @@ def _other(error: BaseException, prog: str, memory_hint: str) -> int:
         # An object the signal caught half-built (a Rerun stream, say) may complain when it is collected: "Exception
         # ignored in ... __del__" and a traceback. The process is ending on the signal; the one line below says all.
         sys.unraisablehook = lambda unraisable: None
-    if number == signal.SIGINT:
-        return _stop(130, f"interrupted: {_what_was_written()}")
-    if number == signal.SIGTERM:
-        return _stop(143, f"terminated: {_what_was_written()}")
+        return _stop(interrupts.EXIT_CODES[number], f"{interrupts.WORDS[number]}: {_what_was_written()}")
     if isinstance(error, OSError) and error.errno in (errno.EMFILE, errno.ENFILE, errno.EAGAIN):
         return _stop(1, f"{prog}: error: the system refused to open or start more ({_says(error)}): raise the limit"
                         f" (ulimit -n, ulimit -u) or close other programs; {_what_was_written()}")
@@ -587,22 +569,34 @@ def _what_was_written() -> str:
 
 def _install_sigterm():
     """While main() runs, Ctrl-C raises KeyboardInterrupt and SIGTERM raises Terminated (each unless it was
-    ignored), replacing the start-up guard of curriculum.common.interrupts; returns the undo."""
+    ignored), replacing the start-up guard of curriculum.common.interrupts; returns the undo.
+    Raised inside a __del__ or a weakref callback, Python would print "Exception ignored" and run on: the
+    unraisable hook ends the run there with the one line (nothing is half-written outside signals_held)."""
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
 
     def terminate(number, frame):
         raise Terminated
 
+    def swallowed(unraisable, previous=sys.unraisablehook):
+        if signal_in(unraisable.exc_value) is None or not interrupts.active():  # (main() called by a test)
+            return previous(unraisable)
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            sys.stdout.flush()
+        os._exit(_other(unraisable.exc_value, "", ""))  # a signal: _other says it and gives its exit code
+
     wanted = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: terminate}
     before = {number: signal.getsignal(number) for number in wanted}
     for number, handler in wanted.items():
         if before[number] is not signal.SIG_IGN:
             signal.signal(number, handler)
+    previous, sys.unraisablehook = sys.unraisablehook, swallowed
 
     def undo():
         for number, handler in before.items():
             signal.signal(number, handler if handler is not None else signal.SIG_DFL)
+        if sys.unraisablehook is swallowed:  # (after a signal, _other's silent hook stays)
+            sys.unraisablehook = previous
 
     return undo
 
