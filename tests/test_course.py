@@ -262,9 +262,12 @@ def test_a_code_exercise_changed_since_it_was_solved_says_so(tmp_path):
 
 def test_the_checker_records_each_check_and_ends_with_its_next_line(tmp_path):
     path = tmp_path / "journal.jsonl"
-    result = run("exercises.check_ex2", str(REPO / "tests" / "planted" / "rk4_equal_weights.py"), journal_path=path)
-    assert result.returncode == 1 and result.stdout.splitlines()[-1] == next_line(EXERCISES, 2)
-    (check,) = [r for r in lines(path) if r["kind"] == "check"]
+    planted = "tests/planted/rk4_equal_weights.py"  # as the student typed it, from the checkout
+    result = run("exercises.check_ex2", planted, journal_path=path)
+    assert result.returncode == 1 and result.stdout.splitlines()[-1] == f"Next: python -m exercises.check_ex2 {planted}"
+    solved = run("exercises.check_ex2", str(REPO / "exercises" / "solutions" / "ex2_integrators.py"), journal_path=path)
+    assert solved.returncode == 0 and solved.stdout.splitlines()[-1] == next_line(EXERCISES, 2)
+    check, _ = [r for r in lines(path) if r["kind"] == "check"]
     assert check["parts"] == {"semi_implicit_step": True, "rk4_step": False} and not check["solved"]
     assert len(check["sha256"]) == 64 and "def " not in path.read_text()
 

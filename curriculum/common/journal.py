@@ -34,7 +34,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from curriculum.common import exercise, interrupts, outputs
+from curriculum.common import cli, exercise, interrupts, outputs
 from curriculum.common.exercise import EXERCISES
 
 try:
@@ -213,8 +213,9 @@ def checked(default: Path, path: Path, parts: dict) -> None:
     digest = hashlib.sha256(own_file(Path(path)) or b"").hexdigest()
     append(lambda book: {"kind": "check", "ex": number, "solved": bool(parts) and all(parts.values()),
                          "parts": parts, "sha256": digest, "own": Path(path).resolve() == Path(default).resolve()})
-    if interrupts.active():
-        print(exercise.next_line(EXERCISES, number))
+    if interrupts.active():  # solved: on to the next exercise; not yet: this checker again, on the same file
+        again = f"python -m exercises.check_ex{number}" + ("" if Path(path) == Path(default) else f" {cli.shown(path, 100)}")
+        print(exercise.next_line(EXERCISES, number) if all(parts.values()) and parts else f"Next: {again}")
 
 
 def own_file(path: Path) -> bytes | None:
