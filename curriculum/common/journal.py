@@ -214,7 +214,8 @@ def checked(default: Path, path: Path, parts: dict) -> None:
     append(lambda book: {"kind": "check", "ex": number, "solved": bool(parts) and all(parts.values()),
                          "parts": parts, "sha256": digest, "own": Path(path).resolve() == Path(default).resolve()})
     if interrupts.active():  # solved: on to the next exercise; not yet: this checker again, on the same file
-        again = f"python -m exercises.check_ex{number}" + ("" if Path(path) == Path(default) else f" {cli.shown(path, 100)}")
+        file = "" if Path(path) == Path(default) else f" {cli.shown(path, 100)}"
+        again = f"python -m exercises.check_ex{number}{file}"
         print(exercise.next_line(EXERCISES, number) if all(parts.values()) and parts else f"Next: {again}")
 
 
