@@ -94,8 +94,8 @@ def main(argv=None) -> int:
           f" {HORIZONS[-2]}x to {HORIZONS[-1]}x, else 'stays':")
     for name, rows in table.items():
         mark = "right" if prediction[name] == answers[name] else "not quite"
-        print(f"  {name:<15} you said {prediction[name]:<6} measured: {widening(rows):.3f} times as wide"
-              f" -> {answers[name]}: {mark}")
+        print(f"  {name:<15} you said {prediction[name]:<6} measured: {widening(rows):.3f} times as wide as at"
+              f" {HORIZONS[-2]}x -> {answers[name]}: {mark}")
     verdict(answers)
 
     rk4 = table["rk4"]
