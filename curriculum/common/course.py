@@ -152,11 +152,7 @@ def reset(parser, found, number: int) -> int:
         return 1  # the journal said why, in one line; nothing was changed
     if changed:
         if current is not None:
-            fd = os.open(kept, os.O_WRONLY | os.O_CREAT | os.O_EXCL | journal.NOFOLLOW, 0o644)
-            with os.fdopen(fd, "wb") as copy:
-                copy.write(current)
-                copy.flush()
-                os.fsync(copy.fileno())
+            write_atomic(kept, current)
         write_atomic(mine, stub.read_bytes())
         print(f"exercises/{mine.name} is the untouched stub again; yours is exercises/{kept.name}.")
     print(f"Exercise {number} starts over: the board shows it as not tried. Its records stay in the journal,"

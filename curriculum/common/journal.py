@@ -46,7 +46,7 @@ DEFAULT = EXERCISES / "journal.jsonl"
 COURSE = EXERCISES.parent  # the chapter's checkout
 SETTING = "COURSE_JOURNAL"
 MAX_BYTES = 4_000_000  # a whole course is a few hundred lines; past this a submission is not a journal
-NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+NOFOLLOW = outputs.NOFOLLOW  # never through a symbolic link
 NOTE = "Written by the exercises, one line per prediction or check. Do not edit: an edit breaks the chain."
 
 
@@ -73,7 +73,8 @@ def where() -> Path | None:
 
 
 def shown(path: Path) -> str:
-    return str(path.relative_to(COURSE)) if path.is_relative_to(COURSE) else str(path)
+    """The journal's path as a message shows it: from the checkout if it is inside, escaped (cli.shown)."""
+    return cli.shown(path.relative_to(COURSE) if path.is_relative_to(COURSE) else path, 100)
 
 
 def when(stamp) -> str:
