@@ -24,7 +24,7 @@ import engine
 from curriculum.common import student_code
 from curriculum.common.student_code import agrees
 from exercises.support import ex2_cases
-from exercises.support.ex2_mistakes import MISTAKES
+from exercises.support.ex2_mistakes import FLOOR, MISTAKES
 
 PROG, DEFAULT_FILE = "python -m exercises.check_ex2", Path(__file__).resolve().parent / "ex2_integrators.py"
 METHODS = {"semi_implicit_step": ("semi-implicit Euler", engine.semi_implicit_step, 1, 1),
@@ -63,14 +63,20 @@ def tasks(name: str) -> list:
             *({"function": name, "group": name, "kind": "run", **run} for run in [*chapter, *ladders, dragged])]
 
 
+def twice(outputs: list) -> tuple:
+    """Single steps' outputs: each probe's first call, and its second from the same state (collect calls twice)."""
+    pairs = np.array(outputs, dtype=float).reshape(len(PROBES), 2, 2, 3)
+    return pairs[:, 0], pairs[:, 1]
+
+
 class Measured:
     """One function's numbers beside the engine's, and the figures its messages quote."""
 
     def __init__(self, name: str, results: list, references: list):
         self.name, self.tasks, probes = name, tasks(name), results[0]
-        self.mine = np.array(probes["outputs"], dtype=float).reshape(len(PROBES), 2, 3)
-        self.calls, self.changed = np.array(probes["calls"], dtype=int), list(probes["changed"])
-        self.theirs = np.array(references[0]["outputs"], dtype=float)
+        self.mine, self.again = twice(probes["outputs"])
+        self.calls, self.changed = np.array(probes["calls"][::2], dtype=int), list(probes["changed"])
+        self.theirs = twice(references[0]["outputs"])[0]
         self.right = agrees(self.mine, self.theirs)
         self.runs = [np.array(r["rows"], dtype=float).reshape(t["steps"] + 1, 6)
                      for r, t in zip(results[1:], self.tasks[1:], strict=True)]
@@ -88,8 +94,8 @@ class Measured:
         factor = errors[0] / errors[1] if errors[1] else math.inf  # Python floats: no numpy warnings either
         return errors[1], factor, math.log2(factor) if 0 < factor < math.inf else math.nan
 
-    def orbit(self) -> str:
-        rows = self.runs[ex2_cases.CHAPTER.index("orbit")]
+    def orbit(self, runs=None) -> str:
+        rows = (runs or self.runs)[ex2_cases.CHAPTER.index("orbit")]
         worst = engine.energy_drift(ex2_cases.BUILT["orbit"]["energy"](rows[:, :3], rows[:, 3:]))["rel_max"]
         return "inf (it blew up)" if worst is None else f"{worst:.1%}" if worst >= 5e-4 else f"{worst:.1e}"
 
@@ -124,6 +130,11 @@ def verdict(measured: Measured, method: str, nominal: int) -> tuple[bool, str]:
         return True, (f"solved: the engine's {method} on {len(PROBES)} single steps and {runs} whole runs, "
                       + ("to the last bit." if not worst_gap else f"within {worst_gap:.1e} of its size (allowed:"
                                                                   f" {TOLERANCE:.0e})."))
+    varies = ~np.isclose(mine, measured.again, rtol=1e-9, atol=1e-9, equal_nan=True).all(axis=(1, 2))
+    if varies.any():
+        return False, (f"its results vary between calls: called twice in a row from the same state, it returned"
+                       f" different numbers on {varies.sum()} of {len(PROBES)} single steps. A step must depend only"
+                       " on what it is given: what does yours keep from one call to the next?")
     if measured.right.all():
         task, parts = measured.tasks[1 + worst], int(np.argmax(measured.gaps[worst] > TOLERANCE))
         ours, theirs = measured.runs[worst], measured.engine_runs[worst]
@@ -144,8 +155,7 @@ def verdict(measured: Measured, method: str, nominal: int) -> tuple[bool, str]:
     change, rk_change = mine - STARTS, measured.theirs - STARTS  # what a step adds, and what the engine's adds
     if np.isfinite(change).all() and agrees(change, np.round(change)).all():
         whole = ", ".join(map("{:g}".format, np.unique(np.round(change)) + 0.0))
-        return False, (f"every change your step makes is a whole number ({whole}). Is something divided with //?"
-                       " Floor division rounds down to a whole number: 0.1 // 6 is 0.")
+        return False, f"every change your step makes is a whole number ({whole}). {FLOOR}"
     scale = float(np.sum(change * rk_change) / np.sum(rk_change * rk_change))  # a uniform rescaling, if it is one
     if measured.name == "rk4_step" and agrees(change, scale * rk_change).all():
         return False, (f"every change your step makes is {scale:.5g} times RK4's: " + (
@@ -153,9 +163,12 @@ def verdict(measured: Measured, method: str, nominal: int) -> tuple[bool, str]:
             f"the weights of your final blend add up to {scale:.5g}, not 1. What do the chapter's add up to?"))
     for function, variant, message, where_ in MISTAKES:
         relevant = [where_ == "all" or ex2_cases.velocity_free(p["system"]) for p in PROBES]
-        theirs = ex2_cases.collect(SimpleNamespace(step=variant), tasks(function)[0] | {"function": "step"})
-        if function == measured.name and agrees(mine, np.array(theirs["outputs"]))[relevant].all():
-            return False, message.format(orbit=measured.orbit(), halving=f"{measured.order('heavy_spring')[1]:.1f}")
+        steps = SimpleNamespace(step=variant)
+        theirs = ex2_cases.collect(steps, tasks(function)[0] | {"function": "step"})
+        if function == measured.name and agrees(mine, twice(theirs["outputs"])[0])[relevant].all():
+            runs = [np.array(ex2_cases.collect(steps, t | {"function": "step"})["rows"]) for t in measured.tasks[1:]]
+            return False, message.format(orbit=measured.orbit(runs),  # the figures of the method named
+                                         halving=f"{measured.order('heavy_spring', runs)[1]:.1f}")
     if agrees(mine[:, ::-1], measured.theirs).all():
         return False, "your numbers are right but returned in the wrong order: which comes first in the pair?"
     return False, unrecognised(measured, method, nominal)

@@ -84,7 +84,7 @@ def collect(steps, task: dict) -> dict:
     try:
         if task["kind"] == "probes":
             outputs, counts, changed = [], [], set()
-            for probe in task["probes"]:
+            for probe in [probe for probe in task["probes"] for _ in range(2)]:  # twice: do results vary?
                 q, v = np.array(probe["q"]), np.array(probe["v"])
                 calls[0] = 0
                 step_taken = step(q, v, mass(probe["system"]), force_of(probe["system"]), probe["dt"])
