@@ -122,7 +122,7 @@ def verdict(measured: Measured, method: str, nominal: int) -> tuple[bool, str]:
         return False, (f"it changes the {' and '.join(measured.changed)} it was given (an in-place update), so"
                        " the caller's state is overwritten. Which arrays may a step write into?")
     worst = int(np.argmax([np.max(gap) for gap in measured.gaps]))
-    worst_gap = float(np.max(measured.gaps[worst]))  # the ladders are runs too: within it, the order is the engine's
+    worst_gap = float(np.max(measured.gaps[worst]))  # the ladders are runs too: within TOLERANCE, the engine's order
     if measured.right.all() and worst_gap <= TOLERANCE:
         return True, (f"solved: the engine's {method} on {len(PROBES)} single steps and {runs} whole runs, "
                       + ("to the last bit." if not worst_gap else f"within {worst_gap:.1e} of its size (allowed:"
@@ -160,8 +160,9 @@ def verdict(measured: Measured, method: str, nominal: int) -> tuple[bool, str]:
         steps = SimpleNamespace(step=variant)
         theirs = ex2_cases.collect(steps, tasks(function)[0] | {"function": "step"})
         if function == measured.name and agrees(mine, np.array(theirs["outputs"]))[relevant].all():
-            runs = [np.array(ex2_cases.collect(steps, t | {"function": "step"})["rows"]) for t in measured.tasks[1:]]
-            return False, message.format(orbit=measured.orbit(runs),  # the figures of the method named
+            runs = ([np.array(ex2_cases.collect(steps, t | {"function": "step"})["rows"]) for t in measured.tasks[1:]]
+                    if "{" in message else None)  # its figures are the named method's, not the file's
+            return False, message.format(orbit=measured.orbit(runs),
                                          halving=f"{measured.order('heavy_spring', runs)[1]:.1f}")
     if agrees(mine[:, ::-1], measured.theirs).all():
         return False, "your numbers are right but returned in the wrong order: which comes first in the pair?"
@@ -216,9 +217,8 @@ def every() -> list:
 def check(path: Path) -> tuple[dict, list[str], student_code.Run]:
     """({function: solved}, one message per function, the run) for a file that compiles."""
     run = student_code.collect(path, "exercises.support.ex2_cases", every(), PROG, TIME_LIMIT)
-    judged = {name: judge(name, path, run, [i for i, t in enumerate(every()) if t["function"] == name])
-              for name in METHODS}
-    return {name: solved for name, (solved, _) in judged.items()}, [message for _, message in judged.values()], run
+    judged = [judge(name, path, run, [i for i, t in enumerate(every()) if t["function"] == name]) for name in METHODS]
+    return dict(zip(METHODS, (solved for solved, _ in judged), strict=True)), [message for _, message in judged], run
 
 
 def main(argv=None) -> int:
