@@ -1,0 +1,127 @@
+"""A code exercise checked again, each submission on its own: the student's file runs against a fresh private
+copy of what the checker needs (never the teacher's checkout), in a child with a time limit and a session of
+its own, as `nobody` when the grader runs as root and that user can run this Python. The student's printed
+output stays in the checker's child; what comes back is the verdict, with an error's type and line but never
+its message (text the student's code chose). Where `nobody` cannot be used, one line says so: grade students'
+code in a container (docs/TEACHING.md).
+"""
+
+import functools
+import hashlib
+import json
+import os
+import pwd
+import signal
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from curriculum.common.exercise import EXERCISE_FILE, EXERCISES
+
+COURSE = EXERCISES.parent
+NEEDED = ["engine*.py", "curriculum/__init__.py", "curriculum/common", "exercises"]  # not the grader, tests, outputs
+TIME_LIMIT = 300  # seconds for a whole check (the checker limits each part of the child's run to 20 s)
+DRIVER = """import json, sys
+sys.path.insert(0, sys.argv[1])
+from pathlib import Path
+from curriculum.common import student_code
+from exercises import check_ex{n} as checker
+student_code.error_sentence = lambda e, f=student_code.error_sentence: f({{**e, "message": ""}})
+path = Path(sys.argv[2])
+problem = student_code.source_problem(path)
+parts, messages = ({{}}, [problem[1]]) if problem else checker.check(path)[:2]
+print("\\nVERDICT " + json.dumps({{"parts": parts, "messages": messages}}))
+"""
+
+
+def check(module: str, data: bytes | None) -> tuple[bool, str]:
+    """(solved, what the checker said) for a handed-in file; the same bytes give the same verdict (cached)."""
+    if data is None:
+        return False, f"no {module}.py handed in"
+    if data == (EXERCISES / "support" / "pristine" / f"{module}.py").read_bytes():
+        return False, "the untouched stub"
+    return _check(module, hashlib.sha256(data).hexdigest(), data)
+
+
+@functools.cache
+def _check(module: str, _digest: str, data: bytes) -> tuple[bool, str]:
+    user = unprivileged()
+    with tempfile.TemporaryDirectory(prefix="grading-") as scratch:
+        root = Path(scratch)
+        os.chmod(root, 0o755)  # the copy is readable by `nobody`, and writable by no student
+        copy, mine, work = root / "course", root / "submitted" / f"{module}.py", root / "work"
+        for relative, content in snapshot().items():
+            (copy / relative).parent.mkdir(parents=True, exist_ok=True)
+            (copy / relative).write_bytes(content)
+        mine.parent.mkdir()
+        mine.write_bytes(data)
+        os.chmod(mine, 0o644)
+        work.mkdir(mode=0o700)
+        if user:
+            os.chown(work, user.pw_uid, user.pw_gid)
+        env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(work), "TMPDIR": str(work),
+               "COURSE_JOURNAL": "off", "LANG": "C.UTF-8", "PYTHONDONTWRITEBYTECODE": "1"}
+        number = EXERCISE_FILE.fullmatch(f"{module}.py")[1]
+        drop = {"user": user.pw_uid, "group": user.pw_gid, "extra_groups": []} if user else {}
+        child = subprocess.Popen([sys.executable, "-I", "-c", DRIVER.format(n=number), str(copy), str(mine)],
+                                 cwd=work, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                 stderr=subprocess.DEVNULL, start_new_session=True, **drop)
+        try:
+            out, _ = child.communicate(timeout=TIME_LIMIT)
+        except subprocess.TimeoutExpired:
+            out = b""
+        finally:
+            _end(child)
+    return _verdict(out)
+
+
+@functools.cache
+def snapshot() -> dict:
+    """{path: bytes} of what a checker needs, read once before any student's code runs: each copy is written from
+    memory, so code that wrote into the checkout (it can, when it runs as root) changes no later submission's."""
+    return {str(path.relative_to(COURSE)): path.read_bytes() for pattern in NEEDED for part in COURSE.glob(pattern)
+            for path in ([part] if part.is_file() else sorted(part.rglob("*.py")) + sorted(part.rglob("*.md")))
+            if "__pycache__" not in path.parts and ".before-reset-" not in path.name}
+
+
+def _end(child: subprocess.Popen) -> None:
+    try:
+        os.killpg(child.pid, signal.SIGKILL)  # its session: the checker's keeper and anything the student started
+    except OSError:
+        pass
+    child.wait()
+
+
+def _verdict(out: bytes) -> tuple[bool, str]:
+    line = out.rpartition(b"\nVERDICT ")[2]
+    try:
+        said = json.loads(line)
+        parts, messages = said["parts"], said["messages"]
+        if not (isinstance(parts, dict) and all(type(v) is bool for v in parts.values())
+                and isinstance(messages, list) and all(isinstance(m, str) for m in messages)):
+            raise ValueError
+    except (ValueError, KeyError, TypeError):
+        return False, "the checker could not finish on this file here (it ran past its time or ended Python)"
+    solved = bool(parts) and all(parts.values())
+    return solved, "solved, checked again here" if solved else " ".join(messages)[:2000]
+
+
+@functools.cache
+def unprivileged():
+    """`nobody`'s passwd entry if the grader is root and `nobody` can run this Python with numpy; None otherwise
+    (then one line says the students' code runs with the grader's privileges)."""
+    if os.geteuid() != 0:
+        return None
+    try:
+        user = pwd.getpwnam("nobody")
+        usable = subprocess.run([sys.executable, "-I", "-c", "import numpy"], user=user.pw_uid, group=user.pw_gid,
+                                extra_groups=[], cwd="/", stdin=subprocess.DEVNULL, capture_output=True,
+                                timeout=120).returncode == 0
+    except (KeyError, OSError, subprocess.SubprocessError):
+        usable = False
+    if not usable:
+        print(f"note: {sys.executable} cannot be run by the user nobody (a private folder on its path?), so"
+              " students' code runs as root: grade in a container (docs/TEACHING.md)", file=sys.stderr)
+        return None
+    return user
