@@ -72,11 +72,10 @@ def board(found) -> int:
 
 
 def next_line(number: int | None, book=None, found=None) -> str:
-    """The board's Next line: the first exercise not done. With recording off the board knows nothing, so the
-    exercise after `number` is next."""
-    if journal.where() is None and number is not None:
-        return exercise.next_line(EXERCISES, number)
+    """The board's Next line, which every exercise's run ends with too: the first exercise not done."""
     book, found = book or journal.load(), found or exercise.exercises(EXERCISES)
+    if number is not None and not book.records:  # recording off or failing: the board knows nothing
+        return exercise.next_line(EXERCISES, number)
     waiting = [command for n, module, kind in found for _, done, command in [status(book, n, module, kind)]
                if not done]
     return f"Next: {waiting[0]}" if waiting else f"Next: read {exercise.READ_ON}."
@@ -122,8 +121,8 @@ def reset(parser, found, number: int) -> int:
         print(f"Recording is off ({journal.SETTING}=off): there is nothing to start over. Nothing was changed.")
         return 0
     module, kind = kinds[number]
-    mine, stub = EXERCISES / f"{module}.py", (EXERCISES / "support" / "pristine" / f"{module}.py").read_bytes()
-    current = journal.own_file(mine)
+    mine, stub = EXERCISES / f"{module}.py", EXERCISES / "support" / "pristine" / f"{module}.py"
+    current, stub = journal.own_file(mine), stub.read_bytes() if kind == "code" else None
     changed = kind == "code" and current != stub
     if changed:
         keep = "Yours is kept beside it." if current else "It is not a file of yours (a link?): nothing is kept."

@@ -61,7 +61,8 @@ def _check(module: str, _digest: str, data: bytes) -> tuple[bool, str]:
         if user:
             os.chown(work, user.pw_uid, user.pw_gid)
         env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(work), "TMPDIR": str(work),
-               "COURSE_JOURNAL": "off", "LANG": "C.UTF-8", "PYTHONDONTWRITEBYTECODE": "1"}
+               "COURSE_JOURNAL": "off", "LANG": "C.UTF-8", "PYTHONDONTWRITEBYTECODE": "1",
+               **{k: v for k, v in os.environ.items() if k == "LD_LIBRARY_PATH"}}  # a Python that needs it
         number = EXERCISE_FILE.fullmatch(f"{module}.py")[1]
         drop = {"user": user.pw_uid, "group": user.pw_gid, "extra_groups": []} if user else {}
         child = subprocess.Popen([sys.executable, "-I", "-c", DRIVER.format(n=number), str(copy), str(mine)],

@@ -58,7 +58,7 @@ def grade(submissions: dict, found: list, due) -> dict:
         book = journal.read(data) if data is not None and len(data) <= journal.MAX_BYTES else None
         rows = [_row(name, book, files, titles, known, due, *item) for item in found]
         late = [str(r["exercise"]) for r in rows if r["flag"] == "late"]
-        flags = [files["problem"], "no journal" if data is None else None if book else
+        flags = [files["problem"], None if book or files["problem"] else "no journal" if data is None else
                  f"a journal over {journal.MAX_BYTES // 1_000_000} MB: not read", *(book.notes() if book else []),
                  *(f"exercise {r['exercise']}: {r['flag']}" for r in rows if r["flag"] and r["flag"] != "late"),
                  late and f"late: the first prediction of exercise {', '.join(late)} came after --due"]
