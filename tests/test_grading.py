@@ -203,7 +203,7 @@ HOSTILE = {  # name in the class folder -> (what is in it, the flag it must get)
                      "could not be read"),
     "corrupt.tar.xz": (lambda p: p.write_bytes(lzma.compress(b"x" * 5000)[:40]), "could not be read"),
     "pax.tar.gz": (lambda p: p.write_bytes(tar_with(512_000_000, 40_000_000)), "unpacks to more than 32 MB"),
-    "big.zip": (lambda p: handin(p, b" " * 5_000_000), "over 4 MB, more than any hand-in holds: refused"),
+    "big.zip": (lambda p: handin(p, b" " * 5_000_000), "over 4 MB, more than a hand-in holds: refused"),
     "\udcff\r=1+2": (lambda p: (p / "exercises").mkdir(parents=True), "no journal"),
     "formula.zip": (lambda p: handin(p, journal_lines(predicted(4, 1000, because="=cmd|' /C calc'!A0\r=1+2"))), ""),
 }

@@ -4,17 +4,12 @@
     python -m exercises --grade ONE --format gradescope|classroom --out FOLDER      # one submission, one platform
     python -m exercises --autograder-zip outputs/autograder.zip                     # Gradescope's autograder
 
-CLASS holds one submission per student (the --handin zip, any zip or tar, a checkout or a folder), named by the
-student's id; anything else in it is named and skipped. Only the journal and each code exercise's file are read:
-archives in memory with bounded size, never extracted, links never followed. A point is a prediction committed
-before its measurement, right or wrong, or a code exercise solved when checked again here: each submission's code
-runs in a child against a fresh private copy of the checker, as `nobody` when the grader is root and can. `right`
-is recomputed from the stored answer against exercises/solutions/ANSWERS.md. See docs/TEACHING.md.
+CLASS holds a submission per student (the --handin zip, a zip, a tar, a checkout, a folder) named by the student's
+id; anything else is named and skipped. docs/TEACHING.md says what is read, how, and what each flag means.
 """
 
 import argparse
 import datetime
-import sys
 from pathlib import Path
 
 from curriculum.common import exercise
@@ -23,8 +18,8 @@ from curriculum.common.exercise import EXERCISES
 from curriculum.common.outputs import folder_problem, write_atomic
 from curriculum.grading import read, recheck, score, write
 
-FILES = {"csv": ("grades.csv", "gradebook.csv", "summary.txt"), "gradescope": ("results.json",),
-         "classroom": ("classroom.json",)}
+FILES = {"csv": ["grades.csv", "gradebook.csv", "summary.txt"], "gradescope": ["results.json"],
+         "classroom": ["classroom.json"]}
 
 
 def main(argv) -> int:
@@ -37,9 +32,10 @@ def main(argv) -> int:
     parser.add_argument("--out", type=Path, default=Path("outputs"), help="--grade's folder (default outputs)")
     parser.add_argument("--roster", type=Path, metavar="FILE", help="the class's ids, one a line (a CSV's first"
                         " column): each id gets a row, and an id with no submission is listed")
-    parser.add_argument("--due", type=due_time, metavar="TIME", help="ISO 8601, e.g. 2026-12-01T23:59+01:00 (UTC"
-                        " if no offset): a first prediction after it is flagged late")
+    parser.add_argument("--due", type=datetime.datetime.fromisoformat, metavar="TIME", help="ISO 8601, e.g."
+                        " 2026-12-01T23:59+01:00 (UTC if no offset): a first prediction after it is flagged late")
     args = parser.parse_args(argv)
+    args.due = args.due and (args.due if args.due.tzinfo else args.due.replace(tzinfo=datetime.UTC))
     if args.autograder_zip:
         problem = folder_problem(args.autograder_zip.parent, [args.autograder_zip.name])
         if problem:
@@ -83,16 +79,10 @@ def main(argv) -> int:
     return 0
 
 
-def due_time(text: str) -> datetime.datetime:
-    moment = datetime.datetime.fromisoformat(text)
-    return moment if moment.tzinfo else moment.replace(tzinfo=datetime.UTC)
-
-
 def print_class(graded: dict, skipped: list, found: list, *written: Path) -> None:
     print(f"{len(graded)} student(s), {len(found)} points each: {', '.join(shown(p, 100) for p in written)}")
     for name, result in graded.items():
         print(f"  {shown(name, 30):<30}{result['points']:>3}  {shown('; '.join(result['flags']), 500)}")
     for name, why in skipped:
         print(f"  skipped {shown(name, 60)}: {why}")
-    print(score.POINT)
-    sys.stdout.flush()
+    print(score.POINT, flush=True)

@@ -1,16 +1,13 @@
-"""Reading hand-ins: which entries of a class folder are submissions, and the few files each one holds.
-
-Bounded whatever a student uploads: an archive over MAX_UPLOAD bytes, a member declaring more than
-journal.MAX_BYTES, or a tar that unpacks past MAX_UNPACKED (a pax header included) is refused with a flag;
-a truncated or unrecognised archive is a submission with a flag, never dropped. Nothing is extracted to disk
-and no link is followed, in a folder or an archive.
-"""
+"""Reading hand-ins, bounded whatever is uploaded: an archive over MAX_UPLOAD, a member over journal.MAX_BYTES or
+a tar unpacking past MAX_UNPACKED (its pax header too) is refused with a flag; a truncated or unrecognised archive
+is a submission with a flag, never dropped. Nothing is extracted; no link is followed, in a folder or an archive."""
 
 import bz2
 import csv
 import gzip
 import lzma
 import os
+import re
 import stat
 import tarfile
 import unicodedata
@@ -25,17 +22,13 @@ MAX_UPLOAD, MAX_UNPACKED = 64_000_000, 32_000_000
 OURS = {"grades.csv", "gradebook.csv", "summary.txt", "results.json", "classroom.json"}  # the grader's own output
 
 
-class Refused(Exception):
-    """An archive over a limit: its message is the flag."""
+class Refused(Exception):  # over a limit: its message is the flag
+    pass
 
 
 def roster_id(name: str) -> str:
-    """A student's id from a file name: its archive suffix off, Unicode NFC (macOS writes NFD), bad bytes shown as
-    U+FFFD."""
-    for suffix in ARCHIVES:
-        if name.lower().endswith(suffix):
-            name = name[: -len(suffix)]
-            break
+    """A student's id from a file name: its archive suffix off, Unicode NFC (macOS writes NFD), bad bytes U+FFFD."""
+    name = re.sub(r"\.(zip|tgz|tar|tar\.gz|tar\.bz2|tar\.xz)$", "", name, flags=re.I)
     return unicodedata.normalize("NFC", name.encode("utf-8", "surrogateescape").decode("utf-8", "replace"))
 
 
@@ -43,8 +36,7 @@ def roster(path: Path) -> list:
     """The ids of a roster file: one a line, or a CSV's first column under an optional header; duplicates refused."""
     with open(path, encoding="utf-8-sig", newline="") as file:
         ids = [unicodedata.normalize("NFC", row[0].strip()) for row in csv.reader(file) if row and row[0].strip()]
-    if ids and ids[0].lower() in ("id", "student", "login", "username", "sis login id", "email"):
-        ids = ids[1:]
+    ids = ids[1:] if ids and ids[0].lower() in ("id", "student", "login", "username", "email") else ids
     twice = sorted({i for i in ids if ids.count(i) > 1})
     if twice:
         raise ValueError(f"--roster lists {', '.join(map(shown, twice))} more than once")
@@ -52,9 +44,8 @@ def roster(path: Path) -> list:
 
 
 def submissions(path: Path, wanted: list, out: Path) -> tuple[dict, list]:
-    """({id: {name: bytes or None, "problem": flag or None}}, [(entry, why skipped)]) for PATH: itself if it is one
-    submission (a checkout, a folder of the files, an archive), else each folder or archive in it. Two entries
-    with one id are an error naming both; the grader's own output folder is never a student."""
+    """({id: {name: bytes or None, "problem": flag}}, [(entry, why skipped)]): PATH itself if it is one submission,
+    else each folder or archive in it. Two with one id are an error naming both; the grader's output is no student."""
     if not path.is_dir():
         if not path.name.lower().endswith(ARCHIVES):
             os.stat(path)  # FileNotFoundError says so
@@ -83,14 +74,12 @@ def _holds(folder: Path, wanted: list) -> bool:
 
 
 def _read(path: Path, wanted: list) -> dict:
-    """{name: bytes or None} for each wanted name at exercises/NAME or NAME (under one top folder too, as GitHub's
-    downloads are), and "problem": why it could not be read, or None."""
+    """{name: bytes or None} for each wanted name at exercises/NAME or NAME, under one top folder too (GitHub's)."""
     try:
-        if path.is_dir():
-            return _folder(path, wanted) | {"problem": None}
-        if path.stat().st_size > MAX_UPLOAD:
+        if not path.is_dir() and path.stat().st_size > MAX_UPLOAD:
             raise Refused(f"{shown(path.name)} is over {MAX_UPLOAD // 1_000_000} MB: refused")
-        return _pick(*(_zip if zipfile.is_zipfile(path) else _tar)(path, wanted), wanted) | {"problem": None}
+        reader = _folder if path.is_dir() else _zip if zipfile.is_zipfile(path) else _tar
+        return _pick(*reader(path, wanted), wanted) | {"problem": None}
     except Refused as refused:
         return dict.fromkeys(wanted) | {"problem": str(refused)}
     except Exception as error:  # noqa: BLE001 (one hand-in's damage, whatever its kind, is its flag; the class goes on)
@@ -102,42 +91,32 @@ def _zip(path: Path, wanted: list) -> tuple[dict, list]:
     members, names = {}, []
     with zipfile.ZipFile(path) as bundle:
         for info in bundle.infolist():
-            if info.is_dir() or stat.S_ISLNK(info.external_attr >> 16):
-                continue
-            names.append(info.filename)
-            if info.filename.rpartition("/")[2] in wanted:
-                _bounded(info.filename, info.file_size)
-                with bundle.open(info) as member:
-                    members[info.filename] = _bounded(info.filename, len(data := member.read(journal.MAX_BYTES + 1)),
-                                                      data)
+            if not info.is_dir() and not stat.S_ISLNK(info.external_attr >> 16):
+                names.append(info.filename)
+                if info.filename.rpartition("/")[2] in wanted and _bounded(info.filename, info.file_size):
+                    with bundle.open(info) as member:
+                        data = member.read(journal.MAX_BYTES + 1)
+                    members[info.filename] = data if _bounded(info.filename, len(data)) else None
     return members, names
 
 
 def _tar(path: Path, wanted: list) -> tuple[dict, list]:
-    """Streamed once through the decompressor its first bytes name, capped at MAX_UNPACKED."""
-    raw = open(path, "rb")  # noqa: SIM115 (closed below with the stream)
-    start = raw.read(6)
-    raw.seek(0)
-    opener = next((o for magic, o in ((b"\x1f\x8b", gzip.GzipFile), (b"BZh", bz2.BZ2File),
-                                      (b"\xfd7zXZ", lzma.LZMAFile)) if start.startswith(magic)), None)
-    stream = _Capped(opener(fileobj=raw) if opener else raw)
     members, names = {}, []
-    try:
-        with tarfile.open(fileobj=stream, mode="r|") as bundle:
+    with open(path, "rb") as raw:
+        start = raw.read(6)
+        raw.seek(0)
+        opener = next((o for magic, o in ((b"\x1f\x8b", gzip.GzipFile), (b"BZh", bz2.BZ2File),
+                                          (b"\xfd7zXZ", lzma.LZMAFile)) if start.startswith(magic)), None)
+        with tarfile.open(fileobj=_Capped(opener(fileobj=raw) if opener else raw), mode="r|") as bundle:
             for member in bundle:
                 if member.isfile():  # no links, devices or folders
                     names.append(member.name)
-                    if member.name.rpartition("/")[2] in wanted:
-                        _bounded(member.name, member.size)
+                    if member.name.rpartition("/")[2] in wanted and _bounded(member.name, member.size):
                         members[member.name] = bundle.extractfile(member).read()
-    finally:
-        raw.close()
     return members, names
 
 
-class _Capped:
-    """A file that refuses to give more than MAX_UNPACKED bytes in all, before it reads them."""
-
+class _Capped:  # a file that refuses to give more than MAX_UNPACKED bytes in all, before it reads them
     def __init__(self, file):
         self.file, self.given = file, 0
 
@@ -150,46 +129,35 @@ class _Capped:
         return data
 
 
-def _bounded(name: str, size: int, data: bytes = b""):
+def _bounded(name: str, size: int) -> bool:
     if size > journal.MAX_BYTES:
-        raise Refused(f"{shown(name)} is over {journal.MAX_BYTES // 1_000_000} MB, more than any hand-in holds:"
-                      " refused")
-    return data
+        raise Refused(f"{shown(name)} is over {journal.MAX_BYTES // 1_000_000} MB, more than a hand-in holds: refused")
+    return True
 
 
 def _pick(members: dict, names: list, wanted: list) -> dict:
     parts = {name: name.split("/") for name in names if not name.startswith("/") and ".." not in name.split("/")}
     tops = {p[0] for p in parts.values() if len(p) > 1}
     top = [tops.pop()] if len(tops) == 1 and all(len(p) > 1 for p in parts.values()) else []
-    return {want: next((members[n] for n, p in parts.items() if n in members and p in
-                        ([*top, "exercises", want], [*top, want])), None) for want in wanted}
+    return {want: next((members.get(n) for n, p in parts.items() if p in ([*top, "exercises", want], [*top, want])),
+                       None) for want in wanted}
 
 
-def _folder(path: Path, wanted: list) -> dict:
-    root = os.open(path, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | journal.NOFOLLOW)
+def _folder(path: Path, wanted: list) -> tuple[dict, list]:
+    members, names = {}, []
+    for top, folders, files in os.walk(path):  # a link to a folder is never entered
+        folders[:] = [f for f in folders if len(Path(top, f).relative_to(path).parts) <= 2]  # top/exercises/NAME
+        for name in files:
+            names.append(str(Path(top, name).relative_to(path)))
+            members[names[-1]] = _file(Path(top, name)) if name in wanted else None
+    return members, names
+
+
+def _file(path: Path) -> bytes | None:
+    """A regular file, never through a link, at most journal.MAX_BYTES (past it: refused)."""
     try:
-        folders = [e for e in os.scandir(root) if e.is_dir(follow_symlinks=False)]
-        if not _holds(path, wanted) and len(folders) == 1:
-            return _folder(path / folders[0].name, wanted)
-        return {name: _beneath(root, f"exercises/{name}") or _beneath(root, name) for name in wanted}
-    finally:
-        os.close(root)
-
-
-def _beneath(root: int, relative: str) -> bytes | None:
-    """The file at `relative` below the folder `root`, opened one name at a time without following a link."""
-    *folders, name = relative.split("/")
-    fd = os.dup(root)
-    try:
-        for folder in folders:
-            fd, previous = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | journal.NOFOLLOW,
-                                   dir_fd=fd), fd
-            os.close(previous)
-        file = os.open(name, os.O_RDONLY | os.O_NONBLOCK | journal.NOFOLLOW, dir_fd=fd)
-        with os.fdopen(file, "rb") as opened:
-            data = opened.read(journal.MAX_BYTES + 1) if stat.S_ISREG(os.fstat(file).st_mode) else None
-        return _bounded(relative, len(data), data) if data is not None else None
+        with open(os.open(path, os.O_RDONLY | os.O_NONBLOCK | journal.NOFOLLOW), "rb") as file:
+            data = file.read(journal.MAX_BYTES + 1) if stat.S_ISREG(os.fstat(file.fileno()).st_mode) else None
     except OSError:
         return None
-    finally:
-        os.close(fd)
+    return data if data is None or _bounded(path.name, len(data)) else None

@@ -1,11 +1,8 @@
-"""A code exercise checked again, each submission on its own: the student's file runs against a fresh private
-copy of what the checker needs (never the teacher's checkout), in a child with a time limit and a session of
-its own, as `nobody` when the grader runs as root and that user can run this Python. The student's printed
-output stays in the checker's child; what comes back is the verdict, with an error's type and line but never
-its message (text the student's code chose). Where `nobody` cannot be used, one line says so: grade students'
-code in a container (docs/TEACHING.md).
-"""
+"""A code exercise checked again: each file against a fresh private copy of the checker (from a snapshot taken
+before any student's code ran), in a child with a time limit and its own session, as `nobody` when the grader is
+root and can. Back comes the verdict: never what the code printed, nor an error's message (its type and line)."""
 
+import contextlib
 import functools
 import hashlib
 import json
@@ -22,15 +19,12 @@ from curriculum.common.exercise import EXERCISE_FILE, EXERCISES
 COURSE = EXERCISES.parent
 NEEDED = ["engine*.py", "curriculum/__init__.py", "curriculum/common", "exercises"]  # not the grader, tests, outputs
 TIME_LIMIT = 300  # seconds for a whole check (the checker limits each part of the child's run to 20 s)
-DRIVER = """import json, sys
-sys.path.insert(0, sys.argv[1])
-from pathlib import Path
+DRIVER = """import json, sys; sys.path.insert(0, sys.argv[1]); from pathlib import Path
 from curriculum.common import student_code
 from exercises import check_ex{n} as checker
 student_code.error_sentence = lambda e, f=student_code.error_sentence: f({{**e, "message": ""}})
-path = Path(sys.argv[2])
-problem = student_code.source_problem(path)
-parts, messages = ({{}}, [problem[1]]) if problem else checker.check(path)[:2]
+problem = student_code.source_problem(Path(sys.argv[2]))
+parts, messages = ({{}}, [problem[1]]) if problem else checker.check(Path(sys.argv[2]))[:2]
 print("\\nVERDICT " + json.dumps({{"parts": parts, "messages": messages}}))
 """
 
@@ -45,84 +39,64 @@ def check(module: str, data: bytes | None) -> tuple[bool, str]:
 
 
 @functools.cache
+def snapshot() -> dict:
+    """{path: bytes} of what a checker needs, read once before any student's code runs."""
+    return {str(path.relative_to(COURSE)): path.read_bytes() for pattern in NEEDED for part in COURSE.glob(pattern)
+            for path in ([part] if part.is_file() else sorted(part.rglob("*.py")) + sorted(part.rglob("*.md")))
+            if "__pycache__" not in path.parts and ".before-reset-" not in path.name}
+
+
+@functools.cache
 def _check(module: str, _digest: str, data: bytes) -> tuple[bool, str]:
     user = unprivileged()
     with tempfile.TemporaryDirectory(prefix="grading-") as scratch:
         root = Path(scratch)
-        os.chmod(root, 0o755)  # the copy is readable by `nobody`, and writable by no student
+        os.chmod(root, 0o755)  # readable by `nobody`, writable by no student's code
         copy, mine, work = root / "course", root / "submitted" / f"{module}.py", root / "work"
         for relative, content in snapshot().items():
             (copy / relative).parent.mkdir(parents=True, exist_ok=True)
             (copy / relative).write_bytes(content)
         mine.parent.mkdir()
         mine.write_bytes(data)
-        os.chmod(mine, 0o644)
         work.mkdir(mode=0o700)
         if user:
             os.chown(work, user.pw_uid, user.pw_gid)
         env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(work), "TMPDIR": str(work),
                "COURSE_JOURNAL": "off", "LANG": "C.UTF-8", "PYTHONDONTWRITEBYTECODE": "1",
                **{k: v for k, v in os.environ.items() if k == "LD_LIBRARY_PATH"}}  # a Python that needs it
-        number = EXERCISE_FILE.fullmatch(f"{module}.py")[1]
         drop = {"user": user.pw_uid, "group": user.pw_gid, "extra_groups": []} if user else {}
-        child = subprocess.Popen([sys.executable, "-I", "-c", DRIVER.format(n=number), str(copy), str(mine)],
-                                 cwd=work, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                 stderr=subprocess.DEVNULL, start_new_session=True, **drop)
+        child = subprocess.Popen([sys.executable, "-I", "-c", DRIVER.format(n=EXERCISE_FILE.fullmatch(
+            f"{module}.py")[1]), str(copy), str(mine)], cwd=work, env=env, stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, start_new_session=True, **drop)
         try:
-            out, _ = child.communicate(timeout=TIME_LIMIT)
+            out = child.communicate(timeout=TIME_LIMIT)[0]
         except subprocess.TimeoutExpired:
             out = b""
         finally:
-            _end(child)
-    return _verdict(out)
-
-
-@functools.cache
-def snapshot() -> dict:
-    """{path: bytes} of what a checker needs, read once before any student's code runs: each copy is written from
-    memory, so code that wrote into the checkout (it can, when it runs as root) changes no later submission's."""
-    return {str(path.relative_to(COURSE)): path.read_bytes() for pattern in NEEDED for part in COURSE.glob(pattern)
-            for path in ([part] if part.is_file() else sorted(part.rglob("*.py")) + sorted(part.rglob("*.md")))
-            if "__pycache__" not in path.parts and ".before-reset-" not in path.name}
-
-
-def _end(child: subprocess.Popen) -> None:
+            with contextlib.suppress(OSError):
+                os.killpg(child.pid, signal.SIGKILL)  # its session: the checker's keeper, anything the code started
+            child.wait()
     try:
-        os.killpg(child.pid, signal.SIGKILL)  # its session: the checker's keeper and anything the student started
-    except OSError:
-        pass
-    child.wait()
-
-
-def _verdict(out: bytes) -> tuple[bool, str]:
-    line = out.rpartition(b"\nVERDICT ")[2]
-    try:
-        said = json.loads(line)
-        parts, messages = said["parts"], said["messages"]
-        if not (isinstance(parts, dict) and all(type(v) is bool for v in parts.values())
-                and isinstance(messages, list) and all(isinstance(m, str) for m in messages)):
-            raise ValueError
+        said = json.loads(out.rpartition(b"\nVERDICT ")[2])
+        parts, messages = dict(said["parts"]), [str(m) for m in said["messages"]]
     except (ValueError, KeyError, TypeError):
         return False, "the checker could not finish on this file here (it ran past its time or ended Python)"
-    solved = bool(parts) and all(parts.values())
+    solved = bool(parts) and all(v is True for v in parts.values())
     return solved, "solved, checked again here" if solved else " ".join(messages)[:2000]
 
 
 @functools.cache
 def unprivileged():
-    """`nobody`'s passwd entry if the grader is root and `nobody` can run this Python with numpy; None otherwise
-    (then one line says the students' code runs with the grader's privileges)."""
+    """`nobody`'s passwd entry if the grader is root and `nobody` can run this Python with numpy, else None."""
     if os.geteuid() != 0:
         return None
     try:
         user = pwd.getpwnam("nobody")
-        usable = subprocess.run([sys.executable, "-I", "-c", "import numpy"], user=user.pw_uid, group=user.pw_gid,
-                                extra_groups=[], cwd="/", stdin=subprocess.DEVNULL, capture_output=True,
-                                timeout=120).returncode == 0
+        if subprocess.run([sys.executable, "-I", "-c", "import numpy"], user=user.pw_uid, group=user.pw_gid,
+                          extra_groups=[], cwd="/", capture_output=True, timeout=120).returncode == 0:
+            return user
     except (KeyError, OSError, subprocess.SubprocessError):
-        usable = False
-    if not usable:
-        print(f"note: {sys.executable} cannot be run by the user nobody (a private folder on its path?), so"
-              " students' code runs as root: grade in a container (docs/TEACHING.md)", file=sys.stderr)
-        return None
-    return user
+        pass
+    print(f"note: the user nobody cannot run {sys.executable} (a private folder on its path?), so students' code"
+          " runs as root: grade in a container (docs/TEACHING.md)", file=sys.stderr)
+    return None

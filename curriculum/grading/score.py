@@ -1,9 +1,5 @@
-"""Grading what was read: a row per student and exercise, the flags, and the class summary.
-
-A prediction exercise's point is its first prediction (the whole journal, resets included); whether it was
-right is recomputed from the stored answer against "The graded answer is `...`" in ANSWERS.md, never read
-from the journal's own marks. A code exercise's point is its file solved when checked again here (recheck.py).
-"""
+"""A row per student and exercise, the flags, the class summary. A prediction exercise's point is its first
+prediction (resets included), `right` recomputed from the stored answer against ANSWERS.md's graded answer."""
 
 import collections
 import datetime
@@ -21,8 +17,7 @@ SOLUTIONS = EXERCISES / "solutions"
 
 
 def truths() -> dict:
-    """{exercise: graded answer as the journal stores it} from ANSWERS.md: 'a=b, c=d' a value per name, 'x, y' a
-    set of names, '1000' a number, else a name."""
+    """{exercise: ANSWERS.md's graded answer, as the journal stores answers: a dict, a sorted list, an int or a str}."""
     text, found = (SOLUTIONS / "ANSWERS.md").read_text(encoding="utf-8"), {}
     for number, body in re.findall(r"^## Exercise (\d+)\b(.*?)(?=^## |\Z)", text, flags=re.M | re.S):
         said = re.search(r"The graded answer is `([^`]+)`", body)
@@ -46,9 +41,8 @@ def marked(answer, truth) -> tuple[int, int] | None:
 
 
 def said(answer) -> str:
-    if isinstance(answer, dict):
-        return ", ".join(f"{k}={v}" for k, v in answer.items())
-    return ", ".join(answer) or "none" if isinstance(answer, list) else str(answer)
+    return ", ".join(f"{k}={v}" for k, v in answer.items()) if isinstance(answer, dict) else \
+        ", ".join(answer) or "none" if isinstance(answer, list) else str(answer)
 
 
 def grade(submissions: dict, found: list, due) -> dict:
@@ -69,32 +63,26 @@ def grade(submissions: dict, found: list, due) -> dict:
 
 
 def one(submissions: dict, skipped: list, found: list, due) -> dict:
-    """A platform's one submission, graded; or, for an upload that is not one, 0 and a sentence saying what to
-    upload."""
+    """A platform's one submission, graded; for an upload that is not one, 0 and what to upload."""
     if len(submissions) == 1:
         return grade(submissions, found, due)
     upload = ", ".join(sorted([*submissions, *(name for name, _ in skipped)])) or "nothing"
-    result = missing("upload", found)
-    result["flags"] = [f"Upload the one zip `python -m exercises --handin` writes (outputs/handin.zip); this upload"
-                       f" holds {upload}."]
-    return {"upload": result}
+    return {"upload": missing("upload", found, f"Upload the one zip `python -m exercises --handin` writes"
+                                                f" (outputs/handin.zip); this upload holds {upload}.")}
 
 
-def missing(name: str, found: list) -> dict:
+def missing(name: str, found: list, why: str = "no submission") -> dict:
     titles = exercise.titles(EXERCISES)
-    rows = [{**_empty(name, number, titles.get(number, module)), "detail": "no submission"}
-            for number, module, _ in found]
-    return {"rows": rows, "book": None, "flags": ["no submission"], "points": 0}
+    return {"rows": [_empty(name, number, titles.get(number, module)) | {"detail": why} for number, module, _ in found],
+            "book": None, "flags": [why], "points": 0}
 
 
 def _empty(student: str, number: int, title: str) -> dict:
-    return {"student": student, "exercise": number, "title": title, "question": "", "first_prediction": "",
-            "first_time_utc": "", "attempts": 0, "resets": 0, "right": "", "items": "", "reason": "",
-            "solved": "", "points": 0, "detail": "", "flag": ""}
+    return dict(student=student, exercise=number, title=title, question="", first_prediction="", first_time_utc="",
+                attempts=0, resets=0, right="", items="", reason="", solved="", points=0, detail="", flag="")
 
 
 def _row(student, book, files, titles, known, due, number, module, kind) -> dict:
-    """One student's line for one exercise, from the whole journal (resets included) and the re-check."""
     mine = book.of(number, everything=True) if book else []
     row = _empty(student, number, titles.get(number, module)) | {"resets": sum(r["kind"] == "reset" for r in mine)}
     if kind == "code":
@@ -130,8 +118,7 @@ def _utc(stamp: str):
 
 
 def _copies(graded: dict) -> None:
-    """Flag students who share more than one journal line (a planted line alone flags nobody), naming each other
-    and the count."""
+    """Students sharing more than one journal line (a planted line alone flags nobody) are named to each other."""
     owners = collections.defaultdict(set)
     for name, result in graded.items():
         for record in result["book"].records if result["book"] else []:
@@ -144,8 +131,7 @@ def _copies(graded: dict) -> None:
 
 
 def summary(graded: dict, found: list) -> str:
-    """Per prediction exercise: first predictions wholly right, the most common wrong one, how many changed their
-    answer; copies and hand edits left out, and counted."""
+    """Per exercise: first predictions wholly right, the commonest wrong one, how many changed; no copy or edit."""
     doubtful = {n for n, r in graded.items() if any(f.startswith(("shares", "edited")) for f in r["flags"])}
     counted = [r for n, r in graded.items() if n not in doubtful and r["book"]]
     lines = [f"Class summary: {len(counted)} journals counted; {len(doubtful)} left out as copies or hand edits."]

@@ -1,10 +1,6 @@
 """What the grader writes: the CSVs (every cell spreadsheet-safe), a platform's results, Gradescope's autograder.
-
-Gradescope: gradescope-autograders.readthedocs.io/en/latest/specs/ (github.com/gradescope/autograder_samples,
-docs/specs.md): every text field declares "text", so nothing a student names renders as HTML. GitHub Classroom:
-the runner result classroom-resources/autograding-grading-reporter reads, base64, from `<STEP ID>_RESULTS`
-(src/main.js); it counts a test's points from status "pass" (src/helpers/test-helpers.js).
-"""
+Gradescope: autograder_samples' docs/specs.md (every text field "text": nothing a student names is HTML). Classroom:
+autograding-grading-reporter reads it base64 from `<STEP ID>_RESULTS` (src/main.js), points from "pass" statuses."""
 
 import csv
 import io
@@ -13,6 +9,7 @@ import re
 import zipfile
 
 from curriculum.common.exercise import EXERCISES
+from curriculum.grading.score import POINT
 
 CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]+")
 FORMULA = ("=", "+", "-", "@")
@@ -20,8 +17,7 @@ GRADE_ITEM = "Chapter 3.3 exercises"
 
 
 def cell(value):
-    """A CSV cell a spreadsheet shows as text: control characters (line ends included) become a space, lone
-    surrogates U+FFFD, and a cell that would start a formula once its leading spaces are gone gets a leading '."""
+    """As text in any spreadsheet: controls (line ends too) a space, lone surrogates U+FFFD, a formula start '-led."""
     if isinstance(value, int):
         return value
     text = CONTROL.sub(" ", str(value)).encode("utf-8", "replace").decode()
@@ -54,7 +50,7 @@ def platform(form: str, graded: dict, possible: int) -> str:
     ((name, result),) = graded.items()
     notes = "\n".join(result["flags"])
     if form == "gradescope":
-        return json.dumps({"score": result["points"], "output": "\n".join(filter(None, [notes, _point()])),
+        return json.dumps({"score": result["points"], "output": "\n".join(filter(None, [notes, POINT])),
                            "output_format": "text", "test_output_format": "text", "test_name_format": "text",
                            "tests": [{"name": f"Exercise {row['exercise']}: {row['title']}", "name_format": "text",
                                       "number": str(row["exercise"]), "score": row["points"], "max_score": 1,
@@ -69,34 +65,6 @@ def platform(form: str, graded: dict, possible: int) -> str:
                                   "filename": "", "line_no": 0, "duration": 0} for row in result["rows"]]}, indent=1)
 
 
-def _point() -> str:
-    from curriculum.grading.score import POINT
-
-    return POINT
-
-
-SETUP = """#!/usr/bin/env bash
-# Gradescope's base image (Ubuntu 22.04) has Python 3.10; the course needs 3.11.
-set -e
-apt-get update
-apt-get install -y python3.11 python3.11-venv
-python3.11 -m venv /autograder/venv
-/autograder/venv/bin/pip install "numpy>=2"
-"""
-RUN = """#!/usr/bin/env bash
-# Grades /autograder/submission with the course pinned in /autograder/source/course. Always leaves results.json.
-root=${AUTOGRADER:-/autograder}  # another root only to try it outside Gradescope
-results=$root/results
-cd "$root/source/course" && "$root/venv/bin/python" -m exercises --grade "$root/submission" --format gradescope \
-  --out "$results"
-if [ ! -s "$results/results.json" ]; then
-  mkdir -p "$results"
-  echo '{"score": 0, "output_format": "text", "output": "The grader could not read this upload. Upload the one\
- zip that python -m exercises --handin writes (outputs/handin.zip)."}' > "$results/results.json"
-fi
-"""
-
-
 def autograder_zip() -> bytes:
     """setup.sh and run_autograder at the top (Gradescope's spec), and the course's files pinned under course/."""
     course, archive = EXERCISES.parent, io.BytesIO()
@@ -104,10 +72,10 @@ def autograder_zip() -> bytes:
              for p in sorted(course.glob(pattern)) if p.is_file() and "__pycache__" not in p.parts
              and p.name != "journal.jsonl" and ".before-reset-" not in p.name]
     with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as bundle:
-        for name, text in (("setup.sh", SETUP), ("run_autograder", RUN)):
+        for name in ("setup.sh", "run_autograder"):  # docs/gradescope/: Gradescope's two, at the top
             info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
             info.external_attr = 0o100755 << 16
-            bundle.writestr(info, text)
+            bundle.writestr(info, (course / "docs" / "gradescope" / name).read_bytes())
         for path in files:
             bundle.writestr(zipfile.ZipInfo(f"course/{path.relative_to(course)}", (1980, 1, 1, 0, 0, 0)),
                             path.read_bytes())
