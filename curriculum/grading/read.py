@@ -22,8 +22,8 @@ MAX_UPLOAD, MAX_UNPACKED = 64_000_000, 32_000_000
 OURS = {"grades.csv", "gradebook.csv", "summary.txt", "results.json", "classroom.json"}  # the grader's own output
 
 
-class Refused(Exception):  # over a limit: its message is the flag
-    pass
+class Refused(Exception):
+    """Over a limit: its message is the flag."""
 
 
 def roster_id(name: str) -> str:
@@ -122,8 +122,7 @@ class _Capped:  # a file that refuses to give more than MAX_UNPACKED bytes in al
 
     def read(self, size=-1):
         if size < 0 or self.given + size > MAX_UNPACKED:
-            raise Refused(f"it unpacks to more than {MAX_UNPACKED // 1_000_000} MB (or a header says it would):"
-                          " refused")
+            raise Refused(f"it unpacks to more than {MAX_UNPACKED // 1_000_000} MB (or a header says so): refused")
         data = self.file.read(size)
         self.given += len(data)
         return data

@@ -2,6 +2,7 @@
 prediction (resets included), `right` recomputed from the stored answer against ANSWERS.md's graded answer."""
 
 import collections
+import contextlib
 import datetime
 import re
 
@@ -110,11 +111,9 @@ def _row(student, book, files, titles, known, due, number, module, kind) -> dict
 
 
 def _utc(stamp: str):
-    try:
+    with contextlib.suppress(ValueError):
         moment = datetime.datetime.fromisoformat(stamp)
-    except ValueError:
-        return None
-    return (moment if moment.tzinfo else moment.replace(tzinfo=datetime.UTC)).astimezone(datetime.UTC)
+        return (moment if moment.tzinfo else moment.replace(tzinfo=datetime.UTC)).astimezone(datetime.UTC)
 
 
 def _copies(graded: dict) -> None:
