@@ -1,11 +1,10 @@
 """The journal, `exercises/journal.jsonl`: every prediction and check, one JSON line each, append-only.
 
-`append(make)` adds make(Journal)'s record under a flock, synced before the exercise goes on; `load()` reads
-this checkout's, `read(data)` a submission's. The header carries VERSION and a random checkout id; every line
-a `chain` hash of the line before and its own fields (an edit breaks it; a copy shares it: for learning, not
-proctoring). `problem` is the one schema every reader applies: a line that fails is unreadable, skipped and
-counted. Never opened through a link, nor as another user's file in a sticky folder. COURSE_JOURNAL=off
-records nothing; COURSE_JOURNAL=PATH moves it."""
+`append(make)` adds make(Journal)'s record under a flock, synced before the exercise goes on; `load()` reads this
+checkout's, `read(data)` a submission's, each line through `valid`, the one schema (a line that fails is counted
+unreadable). The header carries VERSION and a random checkout id; each line a `chain` hash of the one before and
+its own fields: an edit breaks it, a copy shares it (for learning, not proctoring). Never opened through a link,
+nor as another user's file in a sticky folder. COURSE_JOURNAL=off records nothing; COURSE_JOURNAL=PATH moves it."""
 
 import datetime
 import errno
@@ -31,7 +30,7 @@ MAX_LINE, MAX_TEXT, MAX_ITEMS = 20_000, 2_000, 20
 NOFOLLOW = outputs.NOFOLLOW
 NOTE = "Written by the exercises, one line per prediction or check. Do not edit: an edit breaks the chain."
 ANSWER, PARTS = "a name, a number, a list of names or a value per name", "{function: solved}"
-FIELDS = {"journal": {"note": str, "checkout": str, "version?": int}, "asked": {"ex": int, "question": str},
+FIELDS = {"journal": {"version": int, "note": str, "checkout": str}, "asked": {"ex": int, "question": str},
           "predict": {"ex": int, "question": str, "answer": ANSWER, "typed": str, "because": str, "attempt": int},
           "replay": {"ex": int, "question": str, "prediction": str},
           "marks": {"ex": int, "prediction": str, "right": int, "items": int},
@@ -39,15 +38,11 @@ FIELDS = {"journal": {"note": str, "checkout": str, "version?": int}, "asked": {
 
 
 def valid(record) -> bool:
-    """The schema, the one check every reader applies to a line: a kind the exercises write, exactly its fields
-    (with `chain`, and `t` but on the header), each of its type, texts valid Unicode and short, few items."""
-    if not isinstance(record, dict) or record.get("kind") not in FIELDS:
-        return False
-    kind = record["kind"]
-    fields = {"kind": str, "chain": str, **({} if kind == "journal" else {"t": str}), **FIELDS[kind]}
-    kinds = {name.rstrip("?"): kind for name, kind in fields.items()}
-    return {n for n in fields if n[-1] != "?"} <= set(record) <= set(kinds) and all(_fits(v, kinds[n])
-                                                                                   for n, v in record.items())
+    """The schema every reader applies to a line: a kind the exercises write, exactly its fields (with `chain`, and
+    `t` but on the header), each of its type; texts valid Unicode and short, few items."""
+    fields = FIELDS.get(record.get("kind")) if isinstance(record, dict) else None
+    fields = fields and {"kind": str, "chain": str, **({} if record["kind"] == "journal" else {"t": str}), **fields}
+    return bool(fields) and set(record) == set(fields) and all(_fits(v, fields[n]) for n, v in record.items())
 
 
 def _fits(value, kind) -> bool:
@@ -67,7 +62,7 @@ def _fits(value, kind) -> bool:
 
 @dataclass
 class Journal:
-    records: list = field(default_factory=list)  # the lines that pass problem(), in order, the header first
+    records: list = field(default_factory=list)  # the lines that are valid(), in order, the header first
     unreadable: int = 0  # lines that do not: cut off by a crash, edited into nonsense, or not of this format
     edited: int | None = None  # the first record (1 = the header) whose chain does not follow from the one before
     trouble: str | None = None  # why the file could not be read at all, if it could not
@@ -80,8 +75,7 @@ class Journal:
 
     def notes(self) -> list:
         """What is wrong with it, each in the words the board, the hand-in and the grader all use."""
-        version = self.records[0].get("version", "from before versions") if self.records and \
-            self.records[0]["kind"] == "journal" else None
+        version = self.records[0]["version"] if self.records and self.records[0]["kind"] == "journal" else None
         return [n for n in [self.trouble, self.unreadable and f"{self.unreadable} unreadable line(s) (cut off by a"
                             " crash, edited, or not of this format), skipped",
                             self.edited and f"edited by hand: line {self.edited} does not follow from the one before",
@@ -130,8 +124,8 @@ def when(stamp) -> str:  # 'Tue 25 Nov 10:02'
 
 
 def planted(path: Path) -> str | None:
-    """Why `path` must not be opened or replaced: another user's file in a sticky folder everyone may write to
-    (/tmp), as the kernel's protected_regular refuses it, root included. None if it may."""
+    """Why `path` must not be used: another user's file in a sticky folder everyone may write to (/tmp), which the
+    kernel's protected_regular refuses, root included. None if it may be."""
     try:
         here, there = os.stat(path.parent), os.lstat(path)
     except OSError:
@@ -143,7 +137,7 @@ def planted(path: Path) -> str | None:
 
 def _open(path: Path, flags: int) -> int:
     if planted(path):
-        raise OSError(errno.EPERM, "another user's file in a sticky folder (like /tmp), which is never used")
+        raise OSError(errno.EPERM, "another user's file in a sticky folder (like /tmp), never used")
     return os.open(path, flags | os.O_NONBLOCK | NOFOLLOW, 0o644)
 
 
@@ -155,8 +149,7 @@ def load() -> Journal:
     try:
         fd = _open(path, os.O_RDONLY)
         try:
-            if fcntl:
-                fcntl.flock(fd, fcntl.LOCK_SH)  # never half a writer's line
+            fcntl and fcntl.flock(fd, fcntl.LOCK_SH)  # never half a writer's line
             return read(_contents(fd))
         finally:
             os.close(fd)
@@ -168,16 +161,12 @@ def append(make, kept: str | None = None) -> dict | None:
     """Add the record make(journal) returns (None: nothing to add), with its time and chain, and the header first
     if the journal is new. On disk (synced) when this returns it; None if recording is off or failed (one line on
     stderr says so). `kept` joins what a Ctrl-C's line says was kept (outputs.KEPT), in the same instant."""
-    path = where()
+    path, fd = where(), None
     if path is None:
         return None
     try:
         fd = _open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT)
-    except OSError as error:
-        return _cannot(path, error)
-    try:
-        if fcntl:
-            fcntl.flock(fd, fcntl.LOCK_EX)  # writers take turns; released when fd closes
+        fcntl and fcntl.flock(fd, fcntl.LOCK_EX)  # writers take turns; released when fd closes
         data = _contents(fd)
         book = read(data)
         record = make(book)
@@ -190,19 +179,19 @@ def append(make, kept: str | None = None) -> dict | None:
         for item in [*header, record]:
             item["chain"] = before = chained(before, item)
             lines.append(json.dumps(item) + "\n")
-        out = ("\n" if data and not data.endswith(b"\n") else "") + "".join(lines)  # a cut-off line stays apart
+        out = (("\n" if data and not data.endswith(b"\n") else "") + "".join(lines)).encode()  # a cut line stays apart
         with outputs.signals_held():  # Ctrl-C waits for the whole record, then is said
-            out = out.encode()
             while out:  # one write() in practice; the lock keeps any remainder next to it
                 out = out[os.write(fd, out):]
             os.fsync(fd)
-            if kept:
-                outputs.KEPT.append(kept)
+            outputs.KEPT.extend([kept] if kept else [])
         return record
     except OSError as error:
-        return _cannot(path, error)
+        print(f"note: nothing was recorded in the journal ({shown(path)}: {_why(error)})", file=sys.stderr)
+        return None
     finally:
-        os.close(fd)
+        if fd is not None:
+            os.close(fd)
 
 
 def _contents(fd: int) -> bytes:
@@ -213,10 +202,6 @@ def _contents(fd: int) -> bytes:
     if info.st_size > MAX_BYTES:
         raise OSError(errno.EFBIG, f"it is over {MAX_BYTES // 1_000_000} MB, more than a journal ever holds")
     return os.pread(fd, MAX_BYTES + 1, 0)
-
-
-def _cannot(path: Path, error: OSError) -> None:
-    print(f"note: nothing was recorded in the journal ({shown(path)}: {_why(error)})", file=sys.stderr)
 
 
 def _why(error: OSError) -> str:
