@@ -80,7 +80,11 @@ def test_a_class_gives_one_row_each_with_a_roster_a_summary_and_the_same_scores_
     alice = journal_lines(*right, checkout="alice")
     handin(klass / "alice.zip", alice)
     handin(klass / "bob.zip", alice)  # alice's journal handed in as bob's
-    handin(klass / "carol.zip", journal_lines(predicted(4, 10000), checkout="carol").replace(b"10000", b"1000"))
+    carol = journal_lines(predicted(4, 10000), checkout="carol").replace(b"10000", b"1000")  # her answer, edited
+    with tarfile.open(klass / "carol.tar.xz", "w:xz") as archive:
+        info = tarfile.TarInfo("exercises/journal.jsonl")
+        info.size = len(carol)
+        archive.addfile(info, io.BytesIO(carol))
     (klass / "dave").mkdir()  # nothing handed in
     zoe = klass / unicodedata.normalize("NFD", "Zoë") / "exercises"  # macOS names it NFD; the roster says NFC
     zoe.mkdir(parents=True)

@@ -149,25 +149,23 @@ def reset(parser, found, number: int) -> int:
 
 def handin(found, out: Path) -> int:
     """One zip of the journal and every code exercise's file as they sit in the checkout; the same files give the
-    same bytes. A file over journal.MAX_BYTES is left out, and said."""
-    path = journal.where()
-    names = {"exercises/journal.jsonl": path, **{f"exercises/{m}.py": EXERCISES / f"{m}.py" for _, m, k in found
-                                                 if k == "code"}}
-    members = {name: journal.own_file(where) if where else None for name, where in names.items()}
-    big = [name for name, data in members.items() if data and len(data) > journal.MAX_BYTES]
+    same bytes. A file over journal.MAX_BYTES is left out, and said; so is what the board would note."""
+    book, files = journal.load(), {f"exercises/{m}.py": EXERCISES / f"{m}.py" for _, m, k in found if k == "code"}
+    members = {name: journal.own_file(path) for name, path in
+               {"exercises/journal.jsonl": journal.where(), **files}.items() if path}
+    members = {name: data for name, data in members.items() if data is not None}
+    big = [name for name, data in members.items() if len(data) > journal.MAX_BYTES]
     archive = io.BytesIO()
     with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as bundle:
-        for name, data in members.items():
-            if data is not None and name not in big:
-                bundle.writestr(zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0)), data)
+        for name in [name for name in members if name not in big]:
+            bundle.writestr(zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0)), members[name])
     write_atomic(out, archive.getvalue())
-    book = journal.read(members["exercises/journal.jsonl"] or b"") if "exercises/journal.jsonl" not in big else None
-    inside = [name for name, data in members.items() if data is not None and name not in big]
-    print(f"{shown(out, 100)}: {', '.join(inside) or 'nothing'}"
-          f" ({len(book.records) if book else 0} journal lines). Hand this file in; nothing was sent anywhere.")
-    notes = [f"{', '.join(big)} left out: over {journal.MAX_BYTES // 1_000_000} MB" if big else None,
-             *(book.notes() if book else []), None if not book or book.records else
-             f"there is no journal yet ({'recording is off' if path is None else 'run an exercise first'})"]
-    for note in filter(None, notes):
+    inside = [name for name in members if name not in big]
+    print(f"{shown(out, 100)}: {', '.join(inside) or 'nothing'} ({len(book.records)} journal lines). Hand this file"
+          " in; nothing was sent anywhere.")
+    off = journal.where() is None and f"recording is off ({journal.SETTING}=off): there is no journal"
+    empty = not off and not book.records and not book.trouble and "there is no journal yet: run an exercise first"
+    for note in filter(None, [off, empty, big and f"{', '.join(big)} left out: over {journal.MAX_BYTES // 10**6} MB",
+                              *book.notes()]):
         print(f"Note: {shown(note, 300)}.")
     return 0

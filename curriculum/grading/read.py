@@ -105,9 +105,9 @@ def _tar(path: Path, wanted: list) -> tuple[dict, list]:
     with open(path, "rb") as raw:
         start = raw.read(6)
         raw.seek(0)
-        opener = next((o for magic, o in ((b"\x1f\x8b", gzip.GzipFile), (b"BZh", bz2.BZ2File),
-                                          (b"\xfd7zXZ", lzma.LZMAFile)) if start.startswith(magic)), None)
-        with tarfile.open(fileobj=_Capped(opener(fileobj=raw) if opener else raw), mode="r|") as bundle:
+        opener = next((o for magic, o in ((b"\x1f\x8b", gzip.open), (b"BZh", bz2.open), (b"\xfd7zXZ", lzma.open))
+                       if start.startswith(magic)), None)
+        with tarfile.open(fileobj=_Capped(opener(raw) if opener else raw), mode="r|") as bundle:
             for member in bundle:
                 if member.isfile():  # no links, devices or folders
                     names.append(member.name)
