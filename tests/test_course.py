@@ -8,6 +8,7 @@ rest of the suite and checks that the checkout's own journal is never written.
 import getpass
 import json
 import os
+import pty
 import re
 import select
 import shutil
@@ -105,6 +106,19 @@ def test_a_journal_that_cannot_be_written_costs_one_line_and_the_exercise_runs(p
     assert result.stderr.count("\n") == 1 and result.stderr.startswith("note: nothing was recorded in the journal")
     assert ("symbolic link" in result.stderr) == (planted == "symlink")
     assert target.read_text() == "not the journal\n"
+
+
+def test_with_recording_off_a_prediction_says_so_at_a_terminal():
+    """COURSE_JOURNAL=off: one line on the terminal (stderr a tty) says nothing was recorded; piped, stderr stays empty
+    as every exercise's run is tested."""
+    leader, follower = pty.openpty()
+    result = subprocess.run([sys.executable, "-m", "exercises.ex6_stiff_damping", "--predict", "rk4"], cwd=REPO,
+                            env={**os.environ, "COURSE_JOURNAL": "off"}, stdout=subprocess.PIPE, stderr=follower,
+                            timeout=300)
+    os.close(follower)
+    said = os.read(leader, 4096).decode()
+    assert result.returncode == 0 and said == "note: recording is off (COURSE_JOURNAL=off): this prediction is not" \
+        " recorded\r\n", said
 
 
 def test_bad_input_records_nothing(tmp_path):
@@ -230,8 +244,8 @@ def test_the_board_counts_to_seven_with_the_next_command_at_each_step(tmp_path, 
         assert board[-1] == (f"Next: {command(later[0][1], later[0][2])}" if later else f"Next: read {READ_ON}.")
     loaded = subprocess.run([sys.executable, "-c", "import runpy, sys\ntry:\n runpy.run_module('exercises',"
                              " run_name='__main__')\nexcept SystemExit: pass\nprint([m for m in sys.modules if"
-                             " m.split('.')[0] in ('numpy', 'engine', 'rerun')])"], cwd=REPO, capture_output=True,
-                            text=True, env={**os.environ, "COURSE_JOURNAL": str(path)})
+                             " m.split('.')[0] in ('numpy', 'engine', 'rerun') or 'grading' in m])"], cwd=REPO,
+                            capture_output=True, text=True, env={**os.environ, "COURSE_JOURNAL": str(path)})
     assert loaded.stdout.splitlines()[-1] == "[]"
 
 

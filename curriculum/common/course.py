@@ -4,10 +4,8 @@
     python -m exercises --reset N            # start exercise N over; its records stay, marked as reset
     python -m exercises --handin             # outputs/handin.zip: the journal and the code exercises' files
 
-A teacher's `--grade` goes to curriculum.grading, which nothing here imports. Everything is read, not kept by
-hand: the exercises from their files, their titles from exercises/README.md, what the student did from the
-journal. The board loads nothing heavy, shows no answer not yet seen, and counts what a grade counts: the
-first prediction of each exercise, resets included.
+Read, not kept by hand: the exercises from their files, titles from exercises/README.md, the rest from the journal.
+The board loads nothing heavy and counts what a grade counts. A teacher's `--grade` goes to curriculum.grading.
 """
 
 import argparse
@@ -24,18 +22,16 @@ from curriculum.common.cli import OneLineParser, shown
 from curriculum.common.exercise import EXERCISES
 from curriculum.common.outputs import folder_problem, one_line_failures, write_atomic
 
-TEACHER = ("--grade",)  # a teacher's: curriculum.grading reads it, and the rest of that command line
-
 
 @one_line_failures("python -m exercises")
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    if any(a.split("=")[0] in TEACHER for a in argv):
+    if any(a.split("=")[0] == "--grade" for a in argv):  # the teacher's command: nothing else here imports it
         from curriculum.grading import main as grading
 
         return grading(argv)
     parser = OneLineParser(prog="python -m exercises", description=__doc__.split("\n\n")[0],
-                           epilog="Teachers: python -m exercises --grade --help",
+                           epilog="Teachers: docs/TEACHING.md, and python -m exercises --grade . --help",
                            formatter_class=argparse.RawDescriptionHelpFormatter)
     what = parser.add_mutually_exclusive_group()
     what.add_argument("--reset", type=int, metavar="N", help="start exercise N over")
@@ -121,9 +117,9 @@ def reset(parser, found, number: int) -> int:
         print(f"Recording is off ({journal.SETTING}=off): there is nothing to start over. Nothing was changed.")
         return 0
     module, kind = kinds[number]
-    mine, stub = EXERCISES / f"{module}.py", EXERCISES / "support" / "pristine" / f"{module}.py"
-    current, stub = journal.own_file(mine), stub.read_bytes() if kind == "code" else None
-    changed = kind == "code" and current != stub
+    mine, current = EXERCISES / f"{module}.py", journal.own_file(EXERCISES / f"{module}.py")
+    stub = (EXERCISES / "support" / "pristine" / f"{module}.py").read_bytes() if kind == "code" else current
+    changed = current != stub
     if changed:
         keep = "Yours is kept beside it." if current else "It is not a file of yours (a link?): nothing is kept."
         print(f"Put the untouched stub back in exercises/{mine.name}? {keep} [y/N] ", end="", flush=True)
@@ -148,19 +144,17 @@ def reset(parser, found, number: int) -> int:
 
 
 def handin(found, out: Path) -> int:
-    """One zip of the journal and every code exercise's file as they sit in the checkout; the same files give the
-    same bytes. A file over journal.MAX_BYTES is left out, and said; so is what the board would note."""
+    """One zip of the journal and the code exercises' files as they are (same files, same bytes); a file over
+    journal.MAX_BYTES is left out, and said, and so is what the board would note."""
     book, files = journal.load(), {f"exercises/{m}.py": EXERCISES / f"{m}.py" for _, m, k in found if k == "code"}
-    members = {name: journal.own_file(path) for name, path in
-               {"exercises/journal.jsonl": journal.where(), **files}.items() if path}
-    members = {name: data for name, data in members.items() if data is not None}
-    big = [name for name, data in members.items() if len(data) > journal.MAX_BYTES]
-    archive = io.BytesIO()
+    members = {name: data for name, path in {"exercises/journal.jsonl": journal.where(), **files}.items()
+               if path and (data := journal.own_file(path)) is not None}
+    big, archive = [name for name, data in members.items() if len(data) > journal.MAX_BYTES], io.BytesIO()
+    inside = [name for name in members if name not in big]
     with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as bundle:
-        for name in [name for name in members if name not in big]:
+        for name in inside:
             bundle.writestr(zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0)), members[name])
     write_atomic(out, archive.getvalue())
-    inside = [name for name in members if name not in big]
     print(f"{shown(out, 100)}: {', '.join(inside) or 'nothing'} ({len(book.records)} journal lines). Hand this file"
           " in; nothing was sent anywhere.")
     off = journal.where() is None and f"recording is off ({journal.SETTING}=off): there is no journal"

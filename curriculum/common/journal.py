@@ -109,7 +109,7 @@ def chained(before: str, record: dict) -> str:
 
 def where() -> Path | None:  # None: recording is off
     setting = os.environ.get(SETTING, "")
-    return None if setting.strip().lower() == "off" else Path(setting) if setting else DEFAULT
+    return None if setting.strip().lower() == "off" else Path(setting or DEFAULT)
 
 
 def shown(path: Path) -> str:  # escaped, from the checkout if inside it

@@ -299,8 +299,9 @@ def record(number: int | None, asked: str, prediction, args) -> dict:
     kept = f"your prediction is recorded in {journal.shown(journal.where() or Path())}"
     written = journal.append(make, kept) if number is not None else None
     if written is None:
-        off = number is not None and journal.where() is None
-        return {"id": None, "note": f"Recording is off ({journal.SETTING}=off): nothing was recorded." if off else ""}
+        if number is not None and journal.where() is None and sys.stderr.isatty():  # to the student, as progress is
+            print(f"note: recording is off ({journal.SETTING}=off): this prediction is not recorded", file=sys.stderr)
+        return {"id": None, "note": ""}
     same, first = found["same"], found["first"]
     if same:
         return {"id": same.get("chain"), "note": f"The same answer as your attempt {same.get('attempt')}"
