@@ -185,25 +185,25 @@ def test_a_line_cut_off_by_a_crash_is_skipped_and_noted(tmp_path, monkeypatch):
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="flock")
-def test_twenty_runs_started_together_leave_every_record_once(tmp_path):
-    """Twenty exercise 6 runs at once, sixteen different answers (all its answers) and four repeated: every answer
-    is one attempt, numbered once, every repeat a replay, every answer graded once, and the chain holds."""
+def test_ten_runs_started_together_leave_every_record_once(tmp_path):
+    """Ten exercise 6 runs at once, eight different answers and two repeated: every answer is one attempt, numbered
+    once, every repeat a replay, every answer graded once, and the chain holds."""
     path = tmp_path / "journal.jsonl"
     names = ["euler", "semi_implicit", "rk4", "implicit"]
-    answers = [",".join(n for i, n in enumerate(names) if k >> i & 1) or "none" for k in range(16)]
-    answers += answers[:4]
+    answers = [",".join(n for i, n in enumerate(names) if k >> i & 1) or "none" for k in range(8)]
+    answers += answers[:2]
     env = {**os.environ, "COURSE_JOURNAL": str(path)}
     runs = [subprocess.Popen([sys.executable, "-m", "exercises.ex6_stiff_damping", "--predict", answer], cwd=REPO,
                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
             for answer in answers]
-    assert [(r.wait(timeout=300), r.stderr.read()) for r in runs] == [(0, "")] * 20
+    assert [(r.wait(timeout=300), r.stderr.read()) for r in runs] == [(0, "")] * 10
     book = journal.read(path.read_bytes())
     assert book.edited is None and book.unreadable == 0 and sum(r["kind"] == "journal" for r in book.records) == 1
     predictions = [r for r in book.records if r["kind"] == "predict"]
-    assert sorted(r["attempt"] for r in predictions) == list(range(1, 17))
+    assert sorted(r["attempt"] for r in predictions) == list(range(1, 9))
     assert {frozenset(r["answer"]) for r in predictions} == {frozenset(a.split(",")) - {"none"} for a in answers}
     replays = [r for r in book.records if r["kind"] == "replay"]
-    assert len(replays) == 4 and {r["prediction"] for r in replays} <= {r["chain"] for r in predictions}
+    assert len(replays) == 2 and {r["prediction"] for r in replays} <= {r["chain"] for r in predictions}
     marks = [r["prediction"] for r in book.records if r["kind"] == "marks"]
     assert sorted(marks) == sorted(r["chain"] for r in predictions)
 
