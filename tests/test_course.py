@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 from conftest import REPO
-from curriculum.common import course, journal
+from curriculum.common import journal
 from curriculum.common.cli import OneLineParser
 from curriculum.common.exercise import EXERCISES, READ_ON, command, exercises, next_line, titles
 from curriculum.common.predict import OneOf, ask, verdict
@@ -145,7 +145,7 @@ def test_a_changed_answer_is_attempt_2_the_same_one_a_replay_and_the_first_count
     assert kinds == [("journal", None), ("predict", 1), ("marks", None), ("predict", 2), ("marks", None),
                      ("replay", None)]  # the replay's marks are attempt 1's, already there
     book = journal.load()
-    said, done, _ = course.status(book, 4, "ex4_long_run", "predict")
+    said, done, _ = journal.status(book, 4, "ex4_long_run", "predict")
     assert done and said == f"predicted {first_time}: 0 of 1 right, 2 attempts"
     row = score._row("s", book, {}, {}, score.truths(), None, 4, "ex4_long_run", "predict")  # the grader's view
     assert (row["first_prediction"], row["attempts"], row["right"], row["points"]) == ("a", 2, 0, 1)
@@ -166,7 +166,7 @@ def test_each_variant_of_a_question_counts_its_own_attempts():
                                      "because": "", "t": "2025-11-25T10:02:00+01:00"},
                                     {"kind": "predict", "ex": 3, "question": "system=spring", "answer": {"rk4": 32},
                                      "chain": "b", "because": "", "t": "2025-11-25T10:05:00+01:00"}])
-    assert course.status(book, 3, "ex3_halve_dt", "predict")[0] == "predicted Tue 25 Nov 10:02: not measured yet"
+    assert journal.status(book, 3, "ex3_halve_dt", "predict")[0] == "predicted Tue 25 Nov 10:02: not measured yet"
     row = score._row("s", book, {}, {}, {}, None, 3, "ex3_halve_dt", "predict")
     assert (row["question"], row["first_prediction"], row["attempts"]) == ("", "rk4=16", 1)
 

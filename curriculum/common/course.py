@@ -9,7 +9,6 @@ The board loads nothing heavy and counts what a grade counts. A teacher's `--gra
 """
 
 import argparse
-import hashlib
 import io
 import os
 import sys
@@ -54,7 +53,8 @@ def main(argv=None) -> int:
 
 def board(found) -> int:
     book, titles = journal.load(), exercise.titles(EXERCISES)
-    rows = [(number, titles.get(number, module), *status(book, number, module, kind)) for number, module, kind in found]
+    rows = [(number, titles.get(number, module), *journal.status(book, number, module, kind))
+            for number, module, kind in found]
     print(f"{sum(done for *_, done, _ in rows)} of {len(rows)} exercises done.")
     width = max(len(title) for _, title, *_ in rows)
     for number, title, said, _, _ in rows:
@@ -63,50 +63,8 @@ def board(found) -> int:
     for note in filter(None, [off, *book.notes()]):
         print(f"Note: the journal: {shown(note, 300)}; a teacher's grader flags it too." if note is not off else
               f"Note: {note}.")
-    print(next_line(None, book, found))
+    print(journal.next_line(None, book, found))
     return 0
-
-
-def next_line(number: int | None, book=None, found=None) -> str:
-    """The board's Next line, which every exercise's run ends with too: the first exercise not done."""
-    book, found = book or journal.load(), found or exercise.exercises(EXERCISES)
-    if number is not None and not book.records:  # recording off or failing: the board knows nothing
-        return exercise.next_line(EXERCISES, number)
-    waiting = [command for n, module, kind in found for _, done, command in [status(book, n, module, kind)]
-               if not done]
-    return f"Next: {waiting[0]}" if waiting else f"Next: read {exercise.READ_ON}."
-
-
-def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
-    """(what the board says of an exercise, whether it is done, its next command). A prediction exercise shows
-    the first prediction the grade counts (made before any reset too); a code exercise its last check."""
-    since, command = book.of(number), exercise.command(module, kind)
-    if kind == "code":
-        checks = [r for r in since if r["kind"] == "check" and r["own"]]  # not a scratch file's
-        if not checks:
-            return "not tried", False, command
-        last = checks[-1]
-        if last["solved"]:
-            same = last["sha256"] == hashlib.sha256(journal.own_file(EXERCISES / f"{module}.py") or b"").hexdigest()
-            return f"solved {journal.when(last['t'])}" + ("" if same else ", but the file has changed since"), same, \
-                command
-        parts = ", ".join(f"{shown(name)} {'solved' if ok else 'not yet'}" for name, ok in last["parts"].items())
-        return f"checked {journal.when(last['t'])}: {parts or 'it does not run yet'}", False, command
-    every = book.of(number, everything=True)
-    predictions = [r for r in every if r["kind"] == "predict"]
-    if any(r["kind"] == "predict" for r in since):  # done since the last reset; the grade counts the first ever
-        first = predictions[0]
-        marks = next((r for r in every if r["kind"] == "marks" and r["prediction"] == first["chain"]), None)
-        tries = sum(r["question"] == first["question"] for r in predictions)
-        question = f" ({shown(first['question'])})" if first["question"] else ""
-        return (f"predicted {journal.when(first['t'])}{question}"
-                + (f": {marks['right']} of {marks['items']} right" if marks else ": not measured yet")
-                + (f", {tries} attempts" if tries > 1 else "")
-                + ("; the grade counts this first one, from before your reset" if first not in since else ""),
-                True, "")
-    if any(r["kind"] == "asked" for r in since):
-        return "asked", False, f"python -m exercises.{module} --predict ANSWER"
-    return "not tried", False, command
 
 
 def reset(parser, found, number: int) -> int:

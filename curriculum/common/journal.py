@@ -218,11 +218,55 @@ def checked(default: Path, path: Path, parts: dict) -> None:
     append(lambda book: {"kind": "check", "ex": number, "solved": bool(parts) and all(parts.values()),
                          "parts": parts, "sha256": digest, "own": Path(path).resolve() == Path(default).resolve()})
     if interrupts.active():
-        from curriculum.common.course import next_line
-
         file = "" if Path(path) == Path(default) else f" {cli.shown(path, 100)}"
         again = f"Next: python -m exercises.check_ex{number}{file}"
         print(next_line(number) if parts and all(parts.values()) else again)
+
+
+# --- what the board shows of an exercise, and what comes next ---
+
+
+def next_line(number: int | None, book=None, found=None) -> str:
+    """The board's Next line, which every exercise's and the checker's run ends with too: the first exercise not
+    done (with the journal empty or off, the one after `number`)."""
+    book, found = book or load(), found or exercise.exercises(EXERCISES)
+    if number is not None and not book.records:  # recording off or failing: the board knows nothing
+        return exercise.next_line(EXERCISES, number)
+    waiting = [command for n, module, kind in found for _, done, command in [status(book, n, module, kind)]
+               if not done]
+    return f"Next: {waiting[0]}" if waiting else f"Next: read {exercise.READ_ON}."
+
+
+def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
+    """(what the board says of an exercise, whether it is done, its next command). A prediction exercise shows
+    the first prediction the grade counts (made before any reset too); a code exercise its last check."""
+    since, command = book.of(number), exercise.command(module, kind)
+    if kind == "code":
+        checks = [r for r in since if r["kind"] == "check" and r["own"]]  # not a scratch file's
+        if not checks:
+            return "not tried", False, command
+        last = checks[-1]
+        if last["solved"]:
+            same = last["sha256"] == hashlib.sha256(own_file(EXERCISES / f"{module}.py") or b"").hexdigest()
+            return f"solved {when(last['t'])}" + ("" if same else ", but the file has changed since"), same, \
+                command
+        parts = ", ".join(f"{cli.shown(name)} {'solved' if ok else 'not yet'}" for name, ok in last["parts"].items())
+        return f"checked {when(last['t'])}: {parts or 'it does not run yet'}", False, command
+    every = book.of(number, everything=True)
+    predictions = [r for r in every if r["kind"] == "predict"]
+    if any(r["kind"] == "predict" for r in since):  # done since the last reset; the grade counts the first ever
+        first = predictions[0]
+        marks = next((r for r in every if r["kind"] == "marks" and r["prediction"] == first["chain"]), None)
+        tries = sum(r["question"] == first["question"] for r in predictions)
+        question = f" ({cli.shown(first['question'])})" if first["question"] else ""
+        return (f"predicted {when(first['t'])}{question}"
+                + (f": {marks['right']} of {marks['items']} right" if marks else ": not measured yet")
+                + (f", {tries} attempts" if tries > 1 else "")
+                + ("; the grade counts this first one, from before your reset" if first not in since else ""),
+                True, "")
+    if any(r["kind"] == "asked" for r in since):
+        return "asked", False, f"python -m exercises.{module} --predict ANSWER"
+    return "not tried", False, command
 
 
 def own_file(path: Path) -> bytes | None:

@@ -314,9 +314,7 @@ def record(number: int | None, asked: str, prediction, args) -> dict:
 def _say_next(number: int) -> None:
     if interrupts.exit_code() == 0:
         with contextlib.suppress(OSError, ValueError):  # stdout closed: the guard says so, once
-            from curriculum.common.course import next_line as boards  # the board's: the first exercise not done
-
-            print(boards(number), flush=True)
+            print(journal.next_line(number), flush=True)  # the board's: the first exercise not done
 
 
 def how_it_was_run(module: str) -> str:

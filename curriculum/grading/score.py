@@ -6,10 +6,10 @@ import contextlib
 import datetime
 import re
 
+import curriculum.grading.recheck as recheck
 from curriculum.common import exercise, journal
 from curriculum.common.cli import shown
 from curriculum.common.exercise import EXERCISES
-from curriculum.grading import recheck
 
 POINT = ("A point is a prediction committed before its measurement, right or wrong, or a code exercise solved"
          " (checked again here). The journal is for learning, not proctoring: anyone can forge one; an edit or a"
