@@ -46,7 +46,7 @@ from pathlib import Path
 
 from curriculum.common import interrupts, journal
 from curriculum.common.cli import shown
-from curriculum.common.exercise import EXERCISE_FILE, EXERCISES, next_line
+from curriculum.common.exercise import EXERCISE_FILE
 
 # What people call the integrators and the answers, as the chapter, MuJoCo and textbooks write them; keys and
 # values are compared without case, spaces, '_' or '-' (see _name_key), so "Backward Euler" is backwardeuler.
@@ -299,6 +299,8 @@ def record(number: int | None, asked: str, prediction, args) -> dict:
     kept = f"your prediction is recorded in {journal.shown(journal.where() or Path())}"
     written = journal.append(make, kept) if number is not None else None
     if written is None:
+        if number is not None and journal.where() is None and sys.stderr.isatty():  # to the student, as progress is
+            print(f"note: recording is off ({journal.SETTING}=off): this prediction is not recorded", file=sys.stderr)
         return {"id": None, "note": ""}
     same, first = found["same"], found["first"]
     if same:
@@ -312,7 +314,7 @@ def record(number: int | None, asked: str, prediction, args) -> dict:
 def _say_next(number: int) -> None:
     if interrupts.exit_code() == 0:
         with contextlib.suppress(OSError, ValueError):  # stdout closed: the guard says so, once
-            print(next_line(EXERCISES, number), flush=True)
+            print(journal.next_line(number), flush=True)  # the board's: the first exercise not done
 
 
 def how_it_was_run(module: str) -> str:
