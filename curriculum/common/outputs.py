@@ -161,8 +161,8 @@ def write_run(folder: Path, files: dict) -> None:
                         raise OutputError(f"{_p(folder / name)} is a folder; move it away or choose another output"
                                           f" folder; {kept}", exit_code=2)
                 for current in names:
-                    os.replace(temps.pop(current), folder / current)
-                    renamed.append(current)
+                    os.replace(temps[current], folder / current)
+                    renamed.append(temps.pop(current) and current)
                 interrupts.said(f"{' and '.join(names)} in {_p(folder)} {'were' if len(names) > 1 else 'was'}"
                                 " written before that")
                 _sync(folder)
