@@ -87,7 +87,7 @@ def folder_problem(out: Path, names=()) -> str | None:
                        f" {_p(os.readlink(existing))}, which does not exist"
             what = "a file" if stat.S_ISREG(info.st_mode) else "not a folder"
             return f"{_p(out)} cannot hold files: {_p(existing)} is {what}"
-        longest = max(out.parts, key=len, default="")
+        longest = max([*out.parts, *names], key=len, default="")
         if len(os.fsencode(longest)) > 255:
             return f"{_p(out)} cannot be created: a name in it is {len(longest)} characters, longer than the file" \
                    " system allows (255)"
