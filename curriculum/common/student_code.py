@@ -11,15 +11,14 @@ pipe of its own. Every run gives the same verdict: the child's hash seed is fixe
 in place of -I, which would ignore it). Printing does not decide it: the student's prints go to a sink that
 passes on the first few kB and only counts the rest. However the checker ends (the file's end, the time limit,
 Ctrl-C, SIGTERM, SIGHUP, SIGQUIT) the child's process group is killed and its scratch folder removed; if the
-checker is killed outright, the kernel kills the child (PR_SET_PDEATHSIG). A task that never ends costs its
-group: the other groups' tasks run again in a fresh child.
+checker is killed outright, a sentinel the child forks first sees the checker's end of a pipe close and kills
+the group. A task that never ends costs its group: the other groups' tasks run again in a fresh child.
 """
 
 import argparse
 import ast
 import builtins
 import contextlib
-import ctypes
 import importlib
 import importlib.util
 import io
@@ -52,7 +51,6 @@ STOPS = {signal.SIGINT: ("interrupted", 130), signal.SIGTERM: ("terminated", 143
 DONE = b'{"done": true}\n'  # the child's last answer
 PHASES = (b'{"stage": "import"}', b'{"stage": "tasks"}')  # each starts the time limit afresh
 CHILD = "import sys; sys.path.append(sys.argv[2]); from curriculum.common.student_code import _child; _child()"
-PR_SET_PDEATHSIG = 1  # Linux's prctl(2) option: a signal for the child when its parent dies
 _active = {}  # the running child and its scratch folder, for the signal handler
 
 
@@ -197,18 +195,21 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
         raise OutputError(f"the checker cannot make its scratch folder in {shown(tempfile.gettempdir(), 100)}"
                           f" ({error.strerror}); free some space there, or set TMPDIR to another folder", 2) from None
     answers_read, answers_write = os.pipe()
+    watch_read, _active["watch"] = os.pipe()  # its closing (our end, or our death) ends the child's group
     env = {**{k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}, "PYTHONHASHSEED": "0",
            "TMPDIR": scratch}  # -s -P: no user site, nothing from the working folder; the environment's PYTHON* gone
     try:
         child = _active["child"] = subprocess.Popen(
-            [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job), str(os.getpid())],
+            [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job), str(watch_read)],
             cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-            pass_fds=(answers_write,), start_new_session=True)
+            pass_fds=(answers_write, watch_read), start_new_session=True)
     except OSError:
         shutil.rmtree(scratch, ignore_errors=True)
+        os.close(_active.pop("watch"))
         raise
     finally:
         os.close(answers_write)
+        os.close(watch_read)
     printed, answers = bytearray(), bytearray()
     readers = [threading.Thread(target=_drain, args=(child.stdout.fileno(), printed, KEPT_OUTPUT_BYTES, run)),
                threading.Thread(target=_drain, args=(answers_read, answers, MAX_ANSWER_BYTES, None))]
@@ -235,6 +236,8 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
 
 def _end(child, scratch: str) -> None:
     """Kill the child's process group (all it started, unless it left the group) and remove its scratch folder."""
+    with contextlib.suppress(OSError, KeyError):
+        os.close(_active.pop("watch"))
     with contextlib.suppress(OSError):
         os.killpg(child.pid, signal.SIGKILL)
     child.wait()
@@ -476,12 +479,11 @@ class _Sink(io.TextIOBase):
 
 
 def _child() -> None:
-    answers_fd, _, job_file, parent = sys.argv[1:]  # the answers' pipe first, as before
-    prctl = getattr(ctypes.CDLL(None), "prctl", None)  # Linux: the kernel kills us if the checker dies
-    if prctl:
-        prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    if os.getppid() != int(parent):
-        os._exit(1)  # the checker is already gone
+    answers_fd, _, job_file, watch = sys.argv[1:]  # the answers' pipe first, as before
+    if os.fork() == 0:  # a sentinel in our group: when the checker's end of `watch` closes (it is done, or was
+        os.read(int(watch), 1)  # killed outright, SIGKILL too), it ends the group: us and all we started
+        os.killpg(0, signal.SIGKILL)
+    os.close(int(watch))
     job, answers = json.loads(Path(job_file).read_text()), os.fdopen(int(answers_fd), "w", buffering=1)
 
     def send(message):
