@@ -10,7 +10,7 @@ import sys
 import pytest
 
 import engine as chapter
-from conftest import REPO, as_nobody, run_engine
+from conftest import REPO, run_engine
 from curriculum.common.exercise import exercises
 
 
@@ -35,7 +35,6 @@ def test_two_smoke_runs_write_identical_bytes(tmp_path):
 
 BAD_INPUT = {
     "zero dt": (["--dt", "0"], "--dt"),
-    "negative dt": (["--dt", "-0.01"], "--dt"),
     "nan dt": (["--dt", "nan"], "--dt"),
     "infinite dt": (["--dt", "inf"], "--dt"),
     "text dt": (["--dt", "fast"], "--dt"),
@@ -47,7 +46,6 @@ BAD_INPUT = {
     # numbers the flags read, past what Python turns into an int from text (4,300 digits) or a float holds
     "seed 1e4300": (["--seed", "1e4300"], "--seed must be from 0 to 18,446,744,073,709,551,615, got 1e4300"),
     "seed of 4,301 nines": (["--seed", "9" * 4301], "got 999999999999999999999999999999... (4,301 characters)"),
-    "seed of 5,000 digits": (["--seed", "1" * 5000], "--seed must be from 0 to"),
     "ensemble 1e4300": (["--ensemble", "1e4300"], "--ensemble must be from 1 to"),
     "ensemble of 40 million": (["--ensemble", "40000000", "--steps", "1"], "--ensemble must be from 1 to"),
     "damping past the exact solution": (["--system", "damped_spring", "--damping", "2.7e154"], "up to 1e+06"),
@@ -127,25 +125,6 @@ def test_recording_without_rerun_installed_is_one_line_not_a_traceback(tmp_path)
     assert not out.exists()
 
 
-def test_rerun_switched_off_in_the_environment_is_no_rerun_with_one_line(tmp_path):
-    """RERUN=off is Rerun's own switch: every Rerun call then only warns, and no recording can be made."""
-    result = run_engine("--smoke", "--out", tmp_path, env={**os.environ, "RERUN": "off"})
-    assert result.returncode == 0
-    assert result.stderr == "engine.py: note: RERUN=off is set, so no recording is made (as with --no-rerun)\n"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["metrics.json"]
-
-
-@pytest.mark.parametrize("name, env, printed", [("r\u00e9sultats", {"PYTHONIOENCODING": "ascii"}, b"r\\xe9sultats"),
-                                                (os.fsdecode(b"bad\xffbyte"), {}, b"bad\\udcffbyte")])
-def test_a_path_stdout_cannot_encode_prints_escaped_after_the_files_are_written(name, env, printed, tmp_path):
-    out = tmp_path / name
-    result = subprocess.run([sys.executable, "engine.py", "--smoke", "--no-rerun", "--out", os.fsencode(out)],
-                            cwd=REPO, capture_output=True, env={**os.environ, **env}, timeout=120)
-    assert result.returncode == 0 and result.stderr == b"", result.stderr
-    assert (out / "metrics.json").exists()
-    assert b"metrics: " in result.stdout and printed in result.stdout  # escaped, not a UnicodeEncodeError
-
-
 @pytest.mark.parametrize("exercise", [name for _, name, kind in exercises(REPO / "exercises") if kind == "predict"])
 def test_every_exercise_answers_a_mistyped_flag_in_one_line(exercise):
     result = subprocess.run([sys.executable, "-m", f"exercises.{exercise}", "--predcit", "x"], cwd=REPO,
@@ -153,15 +132,6 @@ def test_every_exercise_answers_a_mistyped_flag_in_one_line(exercise):
     assert result.returncode == 2 and result.stdout == ""
     assert result.stderr == (f"exercises.{exercise}: error: unrecognized arguments: --predcit x; did you mean"
                              " --predict? (see --help)\n")
-
-
-def test_rerun_switched_off_makes_exercise_5_skip_its_recording_in_one_line(tmp_path):
-    result = subprocess.run([sys.executable, "-m", "exercises.ex5_phase_blob", "--predict",
-                             "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(tmp_path / "blob.rrd")],
-                            cwd=REPO, capture_output=True, text=True, timeout=120, env={**os.environ, "RERUN": "OFF"})
-    assert result.returncode == 0 and list(tmp_path.iterdir()) == []
-    assert result.stderr == ("exercises.ex5_phase_blob: note: RERUN=OFF is set, so no recording is made"
-                             " (as with --no-rerun)\n")
 
 
 def refused(args, cwd, capsys) -> str:
@@ -183,22 +153,17 @@ LONG = "x" * 5000
 
 @pytest.mark.parametrize("args", [["engine.py", f"--{LONG}"], ["engine.py", LONG], ["engine.py", "--system", LONG],
                                   ["engine.py", "--out", LONG], ["-m", "exercises.check_ex2", f"{LONG}.py"],
-                                  ["-m", "exercises.ex3_halve_dt", "--system", LONG, "--predict", "1"]])
-def test_a_name_of_5000_characters_comes_back_short(args, capsys):
-    """Before: one line of 5,057 characters or more, the whole name."""
-    err = refused(args, REPO, capsys)
-    assert len(err) < 300 and "xxx...xxx" in err
-
-
-@pytest.mark.parametrize("args", [["engine.py", "--out", "a\nb\nc"], ["engine.py", "--out", "a\x1b[2Jb"],
+                                  ["-m", "exercises.ex3_halve_dt", "--system", LONG, "--predict", "1"],
+                                  ["engine.py", "--out", "a\nb\nc"], ["engine.py", "--out", "a\x1b[2Jb"],
                                   ["engine.py", "--sys\x1b[2Jtem", "orbit"], ["engine.py", "--system", "\u202eorbit"],
                                   ["-m", "exercises.check_ex2", "a\x1b[2J.py"]])
-def test_what_was_typed_comes_back_escaped(args, tmp_path, capsys, monkeypatch):
-    """An --out holding a newline gave three lines; escape sequences and bidi overrides reached the terminal."""
+def test_what_was_typed_comes_back_short_and_escaped(args, tmp_path, capsys, monkeypatch):
+    """Before: one line of 5,057 characters or more; an --out holding a newline gave three lines; escape sequences
+    and bidi overrides reached the terminal."""
     monkeypatch.chdir(tmp_path)
     err = refused(args, tmp_path, capsys)
-    assert not re.search("[\x00-\x09\x0b-\x1f\u202a-\u202e]", err), err
-    assert "\\n" in err or "\\x1b" in err or "\\u202e" in err
+    assert len(err) < 300 and not re.search("[\x00-\x09\x0b-\x1f\u202a-\u202e]", err), err
+    assert "xxx...xxx" in err or "\\n" in err or "\\x1b" in err or "\\u202e" in err
     assert list(tmp_path.iterdir()) == []
 
 
@@ -230,25 +195,14 @@ def test_an_exercises_recording_that_cannot_be_made_is_one_line_before_it_measur
     assert sorted(p.name for p in tmp_path.iterdir()) in ([], ["site"])
 
 
-@pytest.mark.parametrize("exercise, prediction", EXERCISE_RECORDINGS[:1])
-def test_an_exercises_recording_in_a_folder_that_cannot_be_searched_is_one_line(exercise, prediction, shared_tmp):
-    """As an unprivileged user: the folder can be read and written, but not searched (mode 766)."""
-    (shared_tmp / "closed").mkdir()
-    (shared_tmp / "closed").chmod(0o766)
-    loaded = (f"import runpy, pkgutil, exercises.{exercise}, numpy.random, gettext, locale, shutil, textwrap, json,"
-              " fractions, rerun, rerun.blueprint, curriculum.common.recording, exercises.support.shadow_recording")
-    code = (f"import sys, warnings; warnings.simplefilter('ignore'); sys.argv = ['x', *sys.argv[1:]];"
-            f" runpy.run_module('exercises.{exercise}', run_name='__main__')")
-    result = as_nobody(code, "--predict", prediction, "--rrd", shared_tmp / "closed" / "x.rrd", load=loaded)
-    assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1, result.stderr
-    assert "Permission denied" in result.stderr and "Traceback" not in result.stderr
-
-
-def test_rerun_switched_off_makes_exercise_7_skip_its_recording_in_one_line(tmp_path):
-    """Before: exercise 7 ran to its end, then printed Rerun's warnings and a traceback (exit 1)."""
-    result = subprocess.run([sys.executable, "-m", "exercises.ex7_shadow_energy", "--predict",
-                             EXERCISE_RECORDINGS[1][1], "--rrd", str(tmp_path / "x.rrd")],
-                            cwd=REPO, capture_output=True, text=True, timeout=120, env={**os.environ, "RERUN": "off"})
-    assert result.returncode == 0 and list(tmp_path.iterdir()) == []
-    assert result.stderr == ("exercises.ex7_shadow_energy: note: RERUN=off is set, so no recording is made"
-                             " (as with --no-rerun)\n")
+@pytest.mark.parametrize("args, files", [(["engine.py", "--smoke", "--out", "{tmp}"], ["metrics.json"]),
+                                         (["-m", "exercises.ex7_shadow_energy", "--predict", EXERCISE_RECORDINGS[1][1],
+                                           "--rrd", "{tmp}/x.rrd"], [])])
+def test_rerun_switched_off_is_no_rerun_with_one_line(args, files, tmp_path):
+    """RERUN=off is Rerun's own switch: every Rerun call then only warns, and no recording can be made. Before,
+    exercise 7 ran to its end, then printed Rerun's warnings and a traceback (exit 1)."""
+    result = subprocess.run([sys.executable, *[arg.format(tmp=tmp_path) for arg in args]], cwd=REPO, timeout=120,
+                            capture_output=True, text=True, env={**os.environ, "RERUN": "off"})
+    prog = "engine.py" if args[0] == "engine.py" else args[1]
+    assert result.returncode == 0 and sorted(p.name for p in tmp_path.iterdir()) == files
+    assert result.stderr == f"{prog}: note: RERUN=off is set, so no recording is made (as with --no-rerun)\n"

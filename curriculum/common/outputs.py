@@ -156,10 +156,6 @@ def write_run(folder: Path, files: dict) -> None:
                         file.write(data.encode() if isinstance(data, str) else data)
                         file.flush()
                         os.fsync(fd)
-                for name in names:
-                    if os.path.isdir(folder / name):
-                        raise OutputError(f"{_p(folder / name)} is a folder; move it away or choose another output"
-                                          f" folder; {kept}", exit_code=2)
                 for current in names:
                     os.replace(temps[current], folder / current)
                     renamed.append(temps.pop(current) and current)
