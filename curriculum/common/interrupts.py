@@ -37,6 +37,7 @@ def install(prog: str) -> None:
             os.fstat(fd)
         except OSError:
             os.open(os.devnull, os.O_RDWR)  # the lowest free number: this one
+    sys.stdout, sys.stderr = sys.stdout or open(1, "w", closefd=False), sys.stderr or open(2, "w", closefd=False)
     for number in EXIT_CODES:
         if signal.getsignal(number) is not signal.SIG_IGN:  # nohup and friends ignore on purpose
             signal.signal(number, _stop)
