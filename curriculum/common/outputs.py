@@ -1,15 +1,10 @@
-"""Writing a run's files whole or not at all, and a main() whose every failure is one line.
+"""A run's files written whole or not at all, and a main() whose every failure is one line.
 
-    from curriculum.common.outputs import folder_problem, write_run, one_line_failures, content_id
-
-- `folder_problem(out, names)` says, before any simulation, why `out` cannot take a run's files (it tries: it
-  creates and removes a file where `out`, or its deepest existing folder, is). It refuses a path through a
-  symbolic link another user planted in a sticky folder everyone may write to (like /tmp), as the kernel's
-  protected_symlinks does. It creates nothing.
-- `write_run(out, {"engine.rrd": data, "metrics.json": text})` writes each file to a temporary file in `out`,
-  synced to disk, then renames them into place in the order given (the index last), holding Ctrl-C and SIGTERM
-  meanwhile. Writers into one folder take turns (flock on the folder). On failure nothing is left behind and the
-  previous files are as they were.
+- `folder_problem(out, names)`: before the run, why `out` cannot take the files (it tries a temporary file where
+  `out`, or its deepest existing folder, is; it creates nothing), or a link another user planted on the way.
+- `write_run(out, {"engine.rrd": data, "metrics.json": text})`: temporary files in `out`, synced, then renamed
+  into place in the order given (the index last) while Ctrl-C and SIGTERM wait; writers into one folder take
+  turns (flock on the folder). On failure nothing is left behind and the previous files are as they were.
 - `@one_line_failures("engine.py")` on a main(): an OutputError, an OSError or a MemoryError is one line.
 """
 
@@ -147,7 +142,7 @@ def write_run(folder: Path, files: dict) -> None:
     temps, renamed, current = {}, [], None
     try:
         os.makedirs(folder, exist_ok=True)
-        with _locked(folder), signals_held():
+        with _locked(folder) as lock, signals_held():
             try:
                 for current, data in files.items():
                     temps[current] = folder / f".{current}.{secrets.token_hex(8)}.tmp"
@@ -161,7 +156,8 @@ def write_run(folder: Path, files: dict) -> None:
                     renamed.append(temps.pop(current) and current)
                 interrupts.said(f"{' and '.join(names)} in {_p(folder)} {'were' if len(names) > 1 else 'was'}"
                                 " written before that")
-                _sync(folder)
+                with contextlib.suppress(OSError):
+                    os.fsync(lock)  # the renames reach the disk too
             finally:
                 for temp in temps.values():
                     with contextlib.suppress(OSError):
@@ -186,27 +182,14 @@ def _kept(folder: Path, names) -> str:
 
 @contextlib.contextmanager
 def _locked(folder: Path):
-    """flock on the folder itself: writers take turns, no lock file is left. Waiting can be interrupted."""
-    if fcntl is None:
-        yield
-        return
-    fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | os.O_CLOEXEC)
+    """The folder open and flocked: writers take turns and no lock file is left. Waiting can be interrupted."""
+    fd = os.open(folder, os.O_RDONLY | os.O_CLOEXEC)
     try:
-        with contextlib.suppress(OSError):  # a file system without flock: each file is still atomic
+        with contextlib.suppress(OSError, AttributeError):  # no flock (Windows, some file systems): still atomic
             fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
+        yield fd
     finally:
         os.close(fd)  # releases the lock
-
-
-def _sync(folder: Path) -> None:
-    """The renames reach the disk too (where a folder can be opened and synced)."""
-    with contextlib.suppress(OSError):
-        fd = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
 
 
 @contextlib.contextmanager

@@ -1,18 +1,13 @@
 """Run a student's file where it cannot decide the verdict: the harness of every chapter's code exercise.
 
-    problem = source_problem(path)             # (exit code, sentence) if it cannot be checked; runs none of it
+    problem = source_problem(path)  # (exit code, sentence) if it cannot be checked; runs none of it
     run = collect(path, "exercises.support.ex2_cases", tasks, prog="python -m exercises.check_ex2")
-    run.results[i]                             # the collector's answer to tasks[i], or {"error": ...}
 
-The file runs in a child Python in a session of its own, with a time limit for its start, its import and its
-tasks. The child imports the chapter's collector, then the student's file (its folder on sys.path after the
-standard library), hands each task to collector.collect(module, task) and sends the answers as JSON lines on a
-pipe of its own. Every run gives the same verdict: the child's hash seed is fixed (PYTHONHASHSEED=0, with -s -P
-in place of -I, which would ignore it). Printing does not decide it: the student's prints go to a sink that
-passes on the first few kB and only counts the rest. However the checker ends (the file's end, the time limit,
-Ctrl-C, SIGTERM, SIGHUP, SIGQUIT) the child's process group is killed and its scratch folder removed; if the
-checker is killed outright, a sentinel the child forks first sees the checker's end of a pipe close and kills
-the group. A task that never ends costs its group: the other groups' tasks run again in a fresh child.
+The file runs in a child Python in a session of its own (-s -P, PYTHONHASHSEED=0: one verdict per file), its
+folder on sys.path after the standard library; the child hands each task to collector.collect(module, task) and
+sends the answers as JSON lines on a pipe. Its prints go to a sink that keeps the first few kB and only counts the
+rest. However the checker ends, the child's process group is killed (SIGKILL too: a sentinel the child forks
+sees the checker's end of a pipe close). A task that never ends costs its group; the others run in a new child.
 """
 
 import argparse
