@@ -418,7 +418,8 @@ def test_reading_submissions_is_safe(tmp_path):
     secret = outside / "secret.jsonl"
     secret.write_text('{"kind": "journal", "checkout": "stolen"}\n')
     marker = tmp_path / "ran.txt"
-    code = (f"import os, sys\nopen({str(marker)!r}, 'w').write(f'{{os.getpid()}} {{sys.flags.isolated}}')\n"
+    code = (f"import os, sys\nopen({str(marker)!r}, 'w')"
+            f".write(f'{{os.getpid()}} {{sys.flags.safe_path * sys.flags.no_user_site}}')\n"
             + SOLUTION.read_text())
     with tarfile.open(subs / "eve.tar", "w") as archive:
         for name in ("../../escape.txt", "/abs.txt", "exercises/../../up.txt"):
@@ -449,5 +450,5 @@ def test_reading_submissions_is_safe(tmp_path):
     assert sorted(p for p in tmp_path.rglob("*") if p.parent != tmp_path / "out") == sorted(
         [*before, tmp_path / "out", marker])
     pid, isolated = marker.read_text().split()
-    assert int(isolated) == 1 and int(pid) != grader.pid  # the checker's child, in isolated mode
+    assert int(isolated) == 1 and int(pid) != grader.pid  # the checker's child, isolated (-s -P)
     assert [r["points"] for r in rows if r["exercise"] == "2" and r["student"] == "eve"] == ["1"]

@@ -21,6 +21,7 @@ import sys
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 WORDS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
 _state = {"prog": None, "said": "no file was written", "code": None}
+KEPT = []  # what the program keeps whatever happens next (a prediction in the journal): every one-line message says so
 
 
 def guard(prog: str) -> None:
@@ -79,7 +80,7 @@ def _stop(number, frame):
         sys.stdout.flush()  # a report already printed reaches its pipe before we go
     except (OSError, ValueError, AttributeError):
         pass
-    text = _state["said"]
+    text = "; ".join([_state["said"], *KEPT])
     say(f"{WORDS[number]}{' ' if text.startswith('after') else ': '}{text}")
     os._exit(EXIT_CODES[number])
 

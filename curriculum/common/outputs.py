@@ -30,7 +30,7 @@ except ImportError:  # Windows: no flock; each file is still replaced atomically
     fcntl = None
 
 NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
-KEPT = []  # what main() keeps whatever happens next (a prediction in the journal): every one-line message says so
+KEPT = interrupts.KEPT  # what main() keeps whatever happens next (a prediction in the journal), said in every line
 
 
 class OutputError(Exception):
@@ -242,7 +242,7 @@ def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
                 code = _stop(1, f"{prog}: error: {error.strerror or error}; {_said()}")
             finally:
                 if interrupts.active():
-                    interrupts.finished(_said(), code)
+                    interrupts.finished(interrupts.said(), code)
             return code
 
         return guarded
