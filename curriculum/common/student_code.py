@@ -19,6 +19,7 @@ import importlib.util
 import io
 import json
 import os
+import select
 import shutil
 import signal
 import stat
@@ -26,7 +27,6 @@ import subprocess
 import sys
 import tempfile
 import textwrap
-import threading
 import time
 import tokenize
 import traceback
@@ -196,7 +196,7 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
     try:
         child = _active["child"] = subprocess.Popen(
             [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job), str(watch_read)],
-            cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+            cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
             pass_fds=(answers_write, watch_read), start_new_session=True)
     except OSError:
         shutil.rmtree(scratch, ignore_errors=True)
@@ -205,28 +205,23 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
     finally:
         os.close(answers_write)
         os.close(watch_read)
-    printed, answers = bytearray(), bytearray()
-    readers = [threading.Thread(target=_drain, args=(child.stdout.fileno(), printed, KEPT_OUTPUT_BYTES, run)),
-               threading.Thread(target=_drain, args=(answers_read, answers, MAX_ANSWER_BYTES, None))]
+    answers, deadline, phase, ended = bytearray(), time.monotonic() + time_limit, 0, False
     try:
-        for reader in readers:
-            reader.daemon = True
-            reader.start()
-        deadline, phase, ended = time.monotonic() + time_limit, 0, False
-        while not ended and time.monotonic() < deadline:
+        while not ended and time.monotonic() < deadline and len(answers) <= MAX_ANSWER_BYTES:
+            if select.select([answers_read], [], [], 0.01)[0]:
+                answers += os.read(answers_read, 1 << 20)
             if phase < len(PHASES) and PHASES[phase] in answers:  # the import, then the tasks: time afresh
                 phase, deadline = phase + 1, time.monotonic() + time_limit
             ended = answers.endswith(DONE) or child.poll() is not None  # (its threads may outlive DONE)
-            time.sleep(0.01 if not ended else 0)
         code = child.poll()
     finally:
         _end(child, scratch)
-        for reader in readers:
-            reader.join(timeout=1.0)  # EOF once they are gone; a process that escaped the group cannot hold us
+        os.set_blocking(answers_read, False)  # what is left, unless a process that escaped the group holds it
+        with contextlib.suppress(OSError):
+            while len(answers) <= MAX_ANSWER_BYTES and (chunk := os.read(answers_read, 1 << 20)):
+                answers += chunk
         os.close(answers_read)
-        child.stdout.close()
-    run.printed = run.printed or bytes(printed)  # a second child (after a stuck task) prints the same start again
-    return _read_answers(bytes(answers), run, pending, ended, code)
+    return _read_answers(bytes(answers[:MAX_ANSWER_BYTES + 1]), run, pending, ended, code)
 
 
 def _end(child, scratch: str) -> None:
@@ -236,25 +231,19 @@ def _end(child, scratch: str) -> None:
     with contextlib.suppress(OSError):
         os.killpg(child.pid, signal.SIGKILL)
     child.wait()
+    for _ in range(200):  # the group's processes are gone in a moment: SIGKILL cannot be caught
+        try:
+            os.killpg(child.pid, 0)
+        except OSError:
+            break
+        time.sleep(0.005)
     shutil.rmtree(scratch, ignore_errors=True)
     _active.clear()
 
 
-def _drain(fd: int, kept: bytearray, limit: int, run: Run | None) -> None:
-    """Read the pipe to its end, keeping at most `limit` bytes: a file that floods cannot flood the checker."""
-    with contextlib.suppress(OSError):  # closed under us after the time limit
-        while chunk := os.read(fd, 65536):
-            kept += chunk[: max(0, limit - len(kept))]
-            if run is not None:
-                run.printed_bytes += len(chunk)
-            elif len(kept) >= limit:
-                kept += b"\n!overflow"
-                return
-
-
 def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: int | None) -> int | None:
     """Fill `run` from the child's JSON lines. Returns the task it stopped in, if it did not finish."""
-    stage, dropped, prints = None, 0, 0
+    stage, dropped, prints, printed = None, 0, 0, ""
     try:
         for line in answers.decode().splitlines():
             message = json.loads(line)
@@ -266,6 +255,8 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
                 run.imported = dict(message["import"])
             elif "clashes" in message:
                 run.clashes = [(str(a), str(b)) for a, b in message["clashes"]]
+            elif "printed" in message:  # the first KEPT_OUTPUT_BYTES of what the student's code printed
+                printed += str(message["printed"])
             elif "dropped" in message:  # what the sink counted and did not pass on, so far
                 dropped, prints = int(message["dropped"]), int(message.get("prints", 0))
             elif "done" not in message:
@@ -273,7 +264,8 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
     except (ValueError, TypeError, KeyError, UnicodeDecodeError) as error:  # a forgery, or a cut-off line
         run.malformed = f"what it sent back could not be read ({type(error).__name__}: {shown(error, 80)})"
         return None
-    run.printed_bytes, run.prints = run.printed_bytes + dropped, run.prints + prints
+    run.printed = run.printed or printed.encode()  # a second child (after a stuck task) prints the same start again
+    run.printed_bytes, run.prints = run.printed_bytes + len(printed.encode()) + dropped, run.prints + prints
     why = "time limit" if not ended else f"exit code {code}"
     if ended and code is not None and code < 0:
         why = f"crashed ({signal.strsignal(-code).lower()}, signal {-code})"
@@ -445,7 +437,7 @@ def _main(prog: str, doc: str, default: Path, what: str, check, argv) -> int:
 
 
 class _Sink(io.TextIOBase):
-    """The student's sys.stdout and sys.stderr: the first KEPT_OUTPUT_BYTES go to the checker's pipe, the rest
+    """The student's sys.stdout and sys.stderr: the first KEPT_OUTPUT_BYTES go to the checker as answers, the rest
     are only counted (said every megabyte, and at the end). Once it is full, print() to it only counts the call:
     formatting arrays costs more than the step, so a print in every call would decide the verdict."""
 
@@ -466,7 +458,8 @@ class _Sink(io.TextIOBase):
         data = str(text).encode("utf-8", "backslashreplace")
         room = min(len(data), max(0, KEPT_OUTPUT_BYTES - self.passed))
         if room:
-            self.passed += os.write(1, data[:room])
+            self.passed += room
+            self.send({"printed": data[:room].decode("utf-8", "ignore")})
         before, self.dropped = self.dropped, self.dropped + len(data) - room
         if self.dropped >> 20 != before >> 20:
             self.send({"dropped": self.dropped})
