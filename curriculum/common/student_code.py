@@ -6,8 +6,9 @@
 The file runs in a child Python in a session of its own (-s -P, PYTHONHASHSEED=0: one verdict per file), its
 folder on sys.path after the standard library; the child hands each task to collector.collect(module, task) and
 sends the answers as JSON lines on a pipe. Its prints go to a sink that keeps the first few kB and only counts the
-rest. However the checker ends, the child's process group is killed (SIGKILL too: a sentinel the child forks
-sees the checker's end of a pipe close). A task that never ends costs its group; the others run in a new child.
+rest. However the checker ends (a signal is the guard's one line, SIGKILL too), a sentinel the child forks sees
+the checker's end of a pipe close, kills the child's process group and removes its scratch folder. A task that
+never ends costs its group; the others run again in a new child.
 """
 
 import argparse
@@ -33,20 +34,17 @@ import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from curriculum.common import interrupts
 from curriculum.common.cli import shown
-from curriculum.common.interrupts import say
 from curriculum.common.outputs import OutputError, one_line_failures
 
 REPO = Path(__file__).resolve().parents[2]
 MAX_SOURCE_BYTES = 1_000_000  # a file of a few functions is a few kB; past this it is not the student's file
 KEPT_OUTPUT_BYTES = 4096  # of what the student's code prints: enough to show, bounded whatever it does
 MAX_ANSWER_BYTES = 64_000_000  # what the child may send back; past this the run counts as malformed
-STOPS = {signal.SIGINT: ("interrupted", 130), signal.SIGTERM: ("terminated", 143), signal.SIGHUP: ("hung up", 129),
-         signal.SIGQUIT: ("quit", 131)}  # the signals that end the checker in one line, and how
 DONE = b'{"done": true}\n'  # the child's last answer
 PHASES = (b'{"stage": "import"}', b'{"stage": "tasks"}')  # each starts the time limit afresh
 CHILD = "import sys; sys.path.append(sys.argv[2]); from curriculum.common.student_code import _child; _child()"
-_active = {}  # the running child and its scratch folder, for the signal handler
 
 
 # --- before anything runs: a regular, readable, compiling Python file ---
@@ -164,9 +162,11 @@ class Run:
 
 
 def collect(path: Path, collector: str, tasks: list, prog: str, time_limit: float = 20.0) -> Run:
-    """Run `tasks` (dicts; "group" names a task's group) on the student's file, in as many children as needed."""
-    run, pending = Run(), list(range(len(tasks)))
-    with stopping_cleanly(prog):
+    """Run `tasks` (dicts; "group" names a task's group) on the student's file, in as many children as needed.
+    (`prog` names the checker; a signal meanwhile is the guard's one line.)"""
+    run, pending, said = Run(), list(range(len(tasks))), interrupts.said()
+    interrupts.said("your file's run was stopped and its scratch folder removed")  # what a signal says meanwhile
+    try:
         while pending and run.imported is None and run.malformed is None:
             stuck = _one_child(path, collector, tasks, pending, time_limit, run)
             if stuck is None:
@@ -176,13 +176,15 @@ def collect(path: Path, collector: str, tasks: list, prog: str, time_limit: floa
                 if i not in run.results and (i == stuck or tasks[i].get("group") == group):
                     run.stopped[i] = run.stopped.get(stuck, "")
             pending = [i for i in pending if i not in run.results and i not in run.stopped]
+    finally:
+        interrupts.said(said)
     return run
 
 
 def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
     """One child for the `pending` tasks. Returns the index of a task it stopped in (time limit or exit), or None."""
     try:
-        scratch = _active["scratch"] = tempfile.mkdtemp(prefix="student-code-")
+        scratch = tempfile.mkdtemp(prefix="student-code-")
         job = Path(scratch, "job.json")
         job.write_text(json.dumps({"file": str(path.resolve()), "collector": collector,
                                    "tasks": {i: tasks[i] for i in pending}}))
@@ -190,17 +192,17 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
         raise OutputError(f"the checker cannot make its scratch folder in {shown(tempfile.gettempdir(), 100)}"
                           f" ({error.strerror}); free some space there, or set TMPDIR to another folder", 2) from None
     answers_read, answers_write = os.pipe()
-    watch_read, _active["watch"] = os.pipe()  # its closing (our end, or our death) ends the child's group
+    watch_read, watch = os.pipe()  # its closing (our end, or our death by any signal) ends the child's group
     env = {**{k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}, "PYTHONHASHSEED": "0",
            "TMPDIR": scratch}  # -s -P: no user site, nothing from the working folder; the environment's PYTHON* gone
     try:
-        child = _active["child"] = subprocess.Popen(
+        child = subprocess.Popen(
             [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job), str(watch_read)],
             cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
             pass_fds=(answers_write, watch_read), start_new_session=True)
     except OSError:
         shutil.rmtree(scratch, ignore_errors=True)
-        os.close(_active.pop("watch"))
+        os.close(watch)
         raise
     finally:
         os.close(answers_write)
@@ -215,7 +217,7 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
             ended = answers.endswith(DONE) or child.poll() is not None  # (its threads may outlive DONE)
         code = child.poll()
     finally:
-        _end(child, scratch)
+        _end(child, scratch, watch)
         os.set_blocking(answers_read, False)  # what is left, unless a process that escaped the group holds it
         with contextlib.suppress(OSError):
             while len(answers) <= MAX_ANSWER_BYTES and (chunk := os.read(answers_read, 1 << 20)):
@@ -224,10 +226,9 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
     return _read_answers(bytes(answers[:MAX_ANSWER_BYTES + 1]), run, pending, ended, code)
 
 
-def _end(child, scratch: str) -> None:
+def _end(child, scratch: str, watch: int) -> None:
     """Kill the child's process group (all it started, unless it left the group) and remove its scratch folder."""
-    with contextlib.suppress(OSError, KeyError):
-        os.close(_active.pop("watch"))
+    os.close(watch)
     with contextlib.suppress(OSError):
         os.killpg(child.pid, signal.SIGKILL)
     child.wait()
@@ -238,7 +239,6 @@ def _end(child, scratch: str) -> None:
             break
         time.sleep(0.005)
     shutil.rmtree(scratch, ignore_errors=True)
-    _active.clear()
 
 
 def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: int | None) -> int | None:
@@ -281,30 +281,6 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
         run.stopped[stuck] = why
         return stuck
     return None
-
-
-@contextlib.contextmanager
-def stopping_cleanly(prog: str):
-    """Inside: Ctrl-C, SIGTERM, SIGHUP (the terminal closed) and SIGQUIT end the child and its group, remove its
-    folder, print one line and exit 130, 143, 129 or 131. The handlers from before are back afterwards."""
-    previous = {number: signal.getsignal(number) for number in STOPS}
-
-    def stop(number, frame):
-        child = _active.get("child")
-        if child:
-            _end(child, _active["scratch"])
-        what, code = STOPS[number]
-        say(f"{prog}: {what}" + (": your file's run was stopped and its scratch folder removed" if child else ""))
-        os._exit(code)
-
-    for number in STOPS:
-        if previous[number] is not signal.SIG_IGN:  # nohup and friends ignore on purpose
-            signal.signal(number, stop)
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
 
 
 # --- comparing outputs with the reference's (numpy arrays, passed in) ---
@@ -468,9 +444,14 @@ class _Sink(io.TextIOBase):
 
 def _child() -> None:
     answers_fd, _, job_file, watch = sys.argv[1:]  # the answers' pipe first, as before
-    if os.fork() == 0:  # a sentinel in our group: when the checker's end of `watch` closes (it is done, or was
-        os.read(int(watch), 1)  # killed outright, SIGKILL too), it ends the group: us and all we started
-        os.killpg(0, signal.SIGKILL)
+    group, scratch = os.getpid(), os.getcwd()
+    if os.fork() == 0:  # a sentinel, in a group of its own: when the checker's end of `watch` closes (it is done,
+        os.setpgid(0, 0)  # or any signal ended it, SIGKILL too), it ends our group, all we started, and removes
+        os.chdir("/")  # the scratch folder
+        os.read(int(watch), 1)
+        os.killpg(group, signal.SIGKILL)
+        shutil.rmtree(scratch, ignore_errors=True)
+        os._exit(0)
     os.close(int(watch))
     job, answers = json.loads(Path(job_file).read_text()), os.fdopen(int(answers_fd), "w", buffering=1)
 
