@@ -20,6 +20,7 @@ from conftest import run as run_alone
 from curriculum.common import outputs
 from curriculum.common.outputs import OutputError, content_id, write_run
 
+SLOW = pytest.mark.slow  # whole engine runs, several with a recording: the full suite runs them, not the quick tier
 PAIR = ("engine.rrd", "metrics.json")  # recording first, the index last: the order engine.py writes them
 ENGINE = REPO / "engine.py"
 
@@ -108,6 +109,7 @@ def small_tmpfs(kib: int):
         where.rmdir()
 
 
+@SLOW
 def test_engine_on_a_full_disk_is_one_line_and_keeps_the_previous_pair():
     with small_tmpfs(96) as disk:
         before = previous_pair(disk / "out")
@@ -116,6 +118,7 @@ def test_engine_on_a_full_disk_is_one_line_and_keeps_the_previous_pair():
         assert_unchanged(disk / "out", before)
 
 
+@SLOW
 def test_runs_started_together_into_missing_folders_each_leave_a_whole_pair(tmp_path):
     """Six at one instant (as a course's CI starts them): three into nested folders that do not exist yet, three
     with a recording into one folder, where the pair that stays must come from one run."""
@@ -167,6 +170,7 @@ def test_an_out_that_cannot_take_the_files_is_one_line_before_the_run(case, tmp_
 OTHER_USER = 65533  # any uid but ours and nobody's: the user who plants the link
 
 
+@SLOW
 def test_a_symlink_another_user_planted_in_a_sticky_folder_is_refused(tmp_path):
     """A sticky folder everyone may write to (like /tmp), where another user made `out` -> a folder of theirs;
     `mine` is our own link leading to theirs. (Linux's fs.protected_symlinks, off on some machines, would refuse.)"""
@@ -220,6 +224,7 @@ MOMENTS = {  # where the signal lands -> the signal, and what the one line says 
 }
 
 
+@SLOW
 @pytest.mark.parametrize("moment", MOMENTS)
 def test_a_signal_at_a_moment_of_the_write_is_one_line_and_leaves_a_whole_pair(moment, tmp_path):
     signame, where, attribute, said = MOMENTS[moment]
@@ -235,6 +240,7 @@ def test_a_signal_at_a_moment_of_the_write_is_one_line_and_leaves_a_whole_pair(m
         assert_unchanged(tmp_path, before)
 
 
+@SLOW
 def test_out_of_memory_at_the_step_cap_is_one_line(tmp_path):
     import resource
 
@@ -247,6 +253,7 @@ def test_out_of_memory_at_the_step_cap_is_one_line(tmp_path):
     assert listing(tmp_path) == []
 
 
+@SLOW
 def test_stdout_closed_early_is_one_line_and_the_files_are_whole(tmp_path):
     run = subprocess.Popen([sys.executable, str(ENGINE), "--smoke", "--out", str(tmp_path)], cwd=REPO,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
