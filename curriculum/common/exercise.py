@@ -1,22 +1,11 @@
 """What every exercise shares: its first line, and how the course finds its exercises.
 
-    import sys
-
-    from curriculum.common.exercise import start
-
-    start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
-
-- `start(__file__)` installs the signal guard (curriculum.common.interrupts) before anything heavy loads
-  (only in the exercise being run: a test that imports one installs nothing),
-  and, when the exercise is run as a file (`python exercises/ex1_band.py`, or from inside exercises/),
-  puts the repo on the import path so `import engine` and `import exercises.support...` work as they do
-  under `python -m exercises.ex1_band`. It loads nothing heavy.
-- `exercises(folder)` lists a chapter's exercises by file name, `exN_topic.py`, in order. An exercise with a
-  checker beside it (`check_exN.py`) is one the student writes; the others are predict-then-run. The tests
-  and tools/bench_exercises.py read this list, so a new exercise needs no list edited (see docs/DEVELOPING.md).
-- `titles(folder)` reads each exercise's title from the headings of its README.md (`## 3. Halve the timestep`),
-  `command(module, kind)` says how a student starts one, and `next_line(folder, number)` is the one line
-  that ends every exercise's run: the next exercise's command, or after the last, where to read on.
+- `start(__file__)`, an exercise's first line: the signal guard (only in the exercise being run), and the repo on
+  the import path, so `python exercises/ex1_band.py` works as `python -m exercises.ex1_band` does.
+- `exercises(folder)`: a chapter's exercises from their file names, `exN_topic.py`, in order; one with a checker
+  beside it (`check_exN.py`) is one the student writes. `titles(folder)` reads their titles from README.md's
+  headings, `command(module, kind)` says how a student starts one, and `next_line(folder, number)` is the line that
+  ends every exercise's run: the next exercise's command, or after the last, where to read on.
 """
 
 import re
