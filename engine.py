@@ -194,7 +194,8 @@ CHAPTER_INTEGRATORS = tuple(name for name, step in INTEGRATORS.items() if step.c
 def simulate(step_fn, system: dict, dt: float, steps: int):
     """Integrate `system` for `steps` steps of `dt`. Returns (positions, velocities, energies) of every state,
     row 0 the start: (steps + 1, 3) and (steps + 1,), or (steps + 1, N, 3) and (steps + 1, N) for a batch.
-    A state that blows up is carried on as inf/NaN without warnings; energy_drift() says from which step."""
+    A state that blows up is carried on as inf/NaN without warnings. energy_drift() says at which step the energy
+    overflowed, which can come well before the state itself does: the energy squares it."""
     q = np.array(system["q0"], dtype=float)
     v = np.array(system["v0"], dtype=float)
     m, force, energy = system["m"], system["force"], system["energy"]
@@ -351,8 +352,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help=f"damped_spring's b in N s/m (default {engine_damping.DAMPING}); exercise 6 asks what"
                              " 250 does at dt 0.01")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
-                        help="timestep in sim seconds, any positive number; raise it and every drift grows"
-                             " (default 0.01)")
+                        help="timestep in sim seconds, positive, short enough that --steps of it fit in a float"
+                             " (default 0.01); raise it and every drift grows, but round-off (RK4's on the freefall)")
     parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=None,
                         help=f"steps per integrator, 1 to {MAX_STEPS:,} (default {DEFAULT_STEPS:,})")
     parser.add_argument("--smoke", action="store_true",

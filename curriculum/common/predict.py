@@ -1,38 +1,23 @@
 """Predict-then-run, shared by every predict-then-run exercise: no figure before a committed answer.
 
-How an exercise uses it (ex4_long_run.py is a short example):
-
-    parser = OneLineParser(prog="exercises.ex5_something", description=__doc__, ...)  # curriculum.common.cli
     prediction = ask(parser, "The question, ending in a question mark?", OneOf(["a", "b"]), argv)
-    ...measure, with no output before this line...
+    ...measure, printing nothing before this point...
     verdict(answer, f"it is {answer}")   # "Right: it is a." / "Not quite: you said b, but it is a."
     explain("The lesson, naming the one figure that matters.", more=lambda: ["- the full story ...", ...])
 
-- `ask` adds `--predict` to the parser. Run bare, the exercise prints the question, the accepted
-  answers and how to commit (four lines, no figure) and exits 0: asking is not an error. A
-  prediction that does not parse gets one line on stderr that lists the accepted forms, and exit 2.
-  Otherwise it returns the parsed prediction.
-- One parser reads every exercise's predictions the way people type them, in time linear in what was
-  typed (a megabyte of spaces is refused at once), and a refusal quotes at most 40 characters of it:
-  `OneOf` (one name: any case, '-' or ' ' for '_', and the names people use: 'backward Euler' is
-  implicit), `Number` (`10000`, `10,000`, `10_000`, `10 000`, `1e4`, `10k`; `1.000` reads two ways and
-  says so), `PerName` (`euler=8, rk4=1`: any spacing and order, ':' for '=', commas, semicolons or
-  just spaces between items; values numbers or words) and `SomeOf` (`rk4, implicit`, `RK4 and
-  implicit Euler`, `none`, `all`). Each has `.forms`, the sentence a refusal prints.
-- `verdict` and `explain` are the one place that prints the grade and the explanation, after the
-  measurement. Keep measured answers out of the module docstring, --help and the question:
-  tests/test_docs.py reads them for leaks.
-- Short answers first: `ask` adds `--more` too. `explain(lesson, more=function)` prints the lesson (at
-  most 120 words, naming the one figure that matters; tests/test_docs.py counts) and a line that says
-  `--more` tells the rest. Under `--more` it then calls `function()`, which prints any further table and
-  returns the full explanation's lines, so what only the full story needs is measured only when asked
-  for, in the same run. The "Next:" line follows either way.
-- The journal (curriculum.common.journal) is written here, so no exercise records anything itself: `ask`
-  records the prediction (with `--because`'s reason) before it returns, so before any figure; a bare run
-  records that the question was asked, or shows what was committed and when. `verdict` records how many
-  items were right. The first prediction of a question counts: a different answer later is the next
-  attempt, and the same one again a replay. A run that measured ends with the line
-  `curriculum.common.exercise.next_line` gives: the next exercise's command.
+- `ask` adds --predict, --because and --more. Run bare, it prints the question and how to commit (no figure)
+  and exits 0; an answer that does not parse gets one line listing the accepted forms, and exit 2. It records
+  the prediction in the journal (curriculum.common.journal) before it returns: the first prediction of a
+  question counts, a different one later is the next attempt, the same one again a replay.
+- The answers are read as people type them, in time linear in the text, quoting at most 40 characters of it:
+  `OneOf` (one name, any case, '-' or ' ' for '_', aliases such as 'backward Euler'), `Number` (10000,
+  10,000, 10_000, 10 000, 1e4, 10k; 1.000 reads two ways and says so), `PerName` ('euler=8, rk4=1': any
+  order and spacing) and `SomeOf` ('rk4, implicit', 'none', 'all'). Each has `.forms`, what a refusal prints.
+- `verdict` prints the grade and records how many items were right; `explain(lesson, more=function)` prints
+  the lesson (at most 120 words: tests/test_prose.py counts) and says that --more tells the rest; under
+  --more, `function()` prints any further table and returns the full explanation's lines. A run that measured
+  ends with `curriculum.common.exercise.next_line`. Keep measured answers out of the docstring, --help and
+  the question: tests/test_docs.py reads them for leaks.
 """
 
 import argparse
@@ -59,6 +44,7 @@ ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler",
            "growswiththerun": "grows", "growwiththerun": "grows", "unbounded": "grows"}
 LONGEST_NAME = 4  # words: "classical runge kutta 4"
 SEPARATORS = ",;"  # between the items of a list; within an item, spaces
+SPELLED = {2: "two", 3: "three", 4: "four", 5: "five"}  # 'all four'
 
 
 class TwoReadings(ValueError):
@@ -149,9 +135,9 @@ class PerName:
         else:
             try:
                 value = _number(text)
-            except ValueError as problem:
-                if isinstance(problem, TwoReadings):
-                    raise ValueError(f"in {item}, {problem}") from None
+            except TwoReadings as problem:
+                raise ValueError(f"in {item}, {problem}") from None
+            except ValueError:
                 value = None
         if value not in self.values:
             raise ValueError(f"in {item}, {_shown(text, quoted=False)} is not one of {self.choices}")
@@ -171,7 +157,7 @@ class SomeOf:
         if words in (["none"], ["none", "of", "them"]):
             return frozenset()
         count = len(self.names.names)
-        if words[:1] == ["all"] and words[1:] in ([], ["of", "them"], [str(count)], [_spelled(count)]):
+        if words[:1] == ["all"] and words[1:] in ([], ["of", "them"], [str(count)], [SPELLED.get(count)]):
             return frozenset(self.names.names)
         if not words:
             raise ValueError(f"the answer is empty: answer with {self.forms}")
@@ -199,15 +185,11 @@ def template(names, what: str = "value") -> str:
 
 
 def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, variant=None, check=None):
-    """Parse argv and return the parsed prediction, recorded in the journal first; without --predict, ask the
-    question (or show what was committed, and when) and exit 0.
+    """The parsed prediction, recorded first; without --predict, the question (or what was committed) and exit 0.
 
-    `answers` is OneOf, Number, PerName or SomeOf (anything with .parse(text) and .forms). The extra
-    arguments an exercise adds to `parser` are in `parser.parsed`, the argparse namespace. `variant` names
-    the one among them that makes another question of it (exercise 3's "system"): each of its values is a
-    question of its own in the journal. `check(args)` says why the other arguments cannot be used, or None;
-    it runs before the prediction is recorded, so bad input exits 2 with nothing recorded.
-    """
+    `answers` has .parse(text) and .forms; the exercise's own arguments end up in `parser.parsed`. `variant` names
+    the one whose every value is a question of its own (exercise 3's "system"); `check(args)` says why the other
+    arguments cannot be used, or None, before anything is recorded."""
     # nargs="+": `--predict euler=8, rk4=1` reaches us as several words; they are one answer
     parser.add_argument("--predict", metavar="ANSWER", nargs="+", action="extend",  # given twice: both count
                         help=f"your prediction: {answers.forms}")
@@ -248,8 +230,7 @@ _asked = {}  # what ask() asked, returned and recorded, for verdict() and explai
 
 
 def asked() -> dict:
-    """What the last ask() asked: {"question": text, "answers": OneOf, Number, PerName or SomeOf, ...}. A bare
-    run asks and exits, so tests/test_docs.py reads each exercise's own answer form here."""
+    """What the last ask() asked: {"question": text, "answers": its parser, ...} (tests/test_docs.py reads it)."""
     return dict(_asked)
 
 
@@ -281,8 +262,8 @@ def said(prediction, answers) -> str:
 
 
 def record(number: int | None, asked: str, prediction, args) -> dict:
-    """The prediction in the journal, synced before any figure: a new answer is the next attempt at the question,
-    the same answer again a replay of the attempt it repeats. Returns {prediction id, note for verdict()}."""
+    """The prediction in the journal before any figure (a new answer the next attempt, the same one a replay):
+    {prediction id, note for verdict()}."""
     answer = sorted(prediction) if isinstance(prediction, frozenset) else prediction
     found = {}
 
@@ -325,12 +306,8 @@ def how_it_was_run(module: str) -> str:
 
 
 def verdict(truth, answer: str | None = None) -> None:
-    """The grade of what ask() returned, one line: 'Right: it is euler.' or 'Not quite: you said rk4, but it is euler.'
-
-    `truth` has the prediction's form (a value per name, a set of names, a name, a number); `answer` says
-    it in words ('it is euler'; for a value per name the default reads 'euler grows, rk4 stays'). How many
-    items were right goes to the journal, and a later attempt is told which prediction counts.
-    """
+    """'Right: it is euler.' or 'Not quite: you said rk4, but it is euler.', and the marks in the journal. `truth`
+    has the prediction's form; `answer` says it in words (by default 'euler grows, rk4 stays')."""
     prediction = _asked["prediction"]
     answer = answer or ", ".join(f"{name} {value}" for name, value in truth.items())
     print(f"Right: {answer}." if prediction == truth else f"Not quite: you said {_asked['said']}, but {answer}.")
@@ -348,13 +325,8 @@ MORE = "The same command with --more explains every figure."
 
 
 def explain(*lines: str, more=None, width: int = 100) -> None:
-    """Print the explanation, each line wrapped for a terminal; a line starting with '- ' is a bullet, one
-    starting with four spaces is code, printed as it is.
-
-    With `more`, the lines are the lesson: run with --more, `more()` then prints any further table and
-    returns the full explanation's lines, printed after a blank line; run without, one line says so (MORE).
-    `more` is a function so that what only the full explanation needs is measured only when it is wanted.
-    """
+    """Print the lines wrapped ('- ' a bullet, four spaces code, as it is). With `more`, they are the lesson:
+    under --more, more()'s lines follow (measured only then); without, MORE says they exist."""
     for line in lines:
         indent = "  " if line.startswith("- ") else ""
         code = line.startswith("    ")
@@ -381,10 +353,6 @@ def _shown(text: str, limit: int = 40, quoted: bool = True) -> str:
     return repr(text) if quoted else shown(text, None)  # repr escapes; unquoted, shown() does
 
 
-def _spelled(n: int) -> str:
-    return {2: "two", 3: "three", 4: "four", 5: "five"}.get(n, str(n))
-
-
 def _words(text: str) -> list:
     """The words of an answer: split at spaces, commas, semicolons and '+'. One pass over the text."""
     for separator in SEPARATORS + "+":
@@ -393,9 +361,8 @@ def _words(text: str) -> list:
 
 
 def _pairs(text: str, forms: str):
-    """(name text, value text) for each item of 'euler=8, semi implicit: 4 rk4=1', one at a time (a refusal
-    comes at the first bad item, however long the rest). Split at every '=' or ':'; between two of them
-    sits one value, then (after a comma, a semicolon or a space) the next name."""
+    """(name text, value text) for each item of 'euler=8, semi implicit: 4 rk4=1', one at a time: split at '='
+    or ':', between two of them a value, then (after a comma, a semicolon or a space) the next name."""
     pieces = re.split(r"[=:]", text)  # a character class, no repetition: linear in the text
     if len(pieces) == 1:
         if not text.strip(" ,;\t\n"):
@@ -428,9 +395,8 @@ def _value_then_name(text: str) -> tuple[str, str]:
 
 
 def _number(text: str) -> int:
-    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' / '10k' -> 10000; ValueError if not a whole number.
-
-    TwoReadings for '1.000' and '10.000', which is ten thousand in much of Europe and ten here."""
+    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' / '10k' -> 10000; ValueError if not a whole number,
+    TwoReadings for '1.000' (a thousand in much of Europe, one here)."""
     shown = _shown(text)
     text = " ".join(text.split()).lower()
     if re.fullmatch(r"\d{1,3}(?:\.\d{3})+", text):  # fixed-width groups: linear

@@ -284,9 +284,8 @@ def log_axes(stream, entity: str, low, high, names: tuple[str, str], scales=(1.0
     longest = max(abs(x0), abs(x1), abs(y0), abs(y1))
     for axis, (start, end) in enumerate(((x0, x1), (y0, y1))):
         length = max(abs(start), abs(end), 0.25 * longest)
-        unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0  # 1 to 9 ticks each way
-        if length < 2.0 * unit:  # 1.0 to 1.99: ticks every half unit, so that one lands inside the tip
-            unit /= 2.0
+        unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0
+        unit /= 5.0 if length < 2.0 * unit else 2.0 if length < 5.0 * unit else 1.0  # 4 to 9 ticks each way
         for k in range(math.ceil(start / unit), math.floor(end / unit) + 1):
             at_tip = abs(k * unit - end) < 0.15 * (end - start)  # a tick there would sit under the axis name
             if k and not at_tip:
