@@ -18,6 +18,7 @@ import re
 import shlex
 import subprocess
 import sys
+import tokenize
 
 import pytest
 
@@ -254,12 +255,20 @@ def explanations() -> dict:
     return told
 
 
+def prose_of(path) -> str:
+    """What a reader takes from a source file besides its code: its docstrings and comments."""
+    source = path.read_text()
+    nodes = [node for node in ast.walk(ast.parse(source)) if isinstance(node, ast.Module | ast.FunctionDef)]
+    comments = [t.string for t in tokenize.generate_tokens(io.StringIO(source).readline) if t.type == tokenize.COMMENT]
+    return "\n".join([*(ast.get_docstring(node) or "" for node in nodes), *comments])
+
+
 def read_before(number: int) -> dict:
     """{where: text} for what a student reads before committing to exercise `number`'s prediction, besides what
     the earlier exercises printed: README (before exercise 1, up to its request to do it), the exercises' README,
     the hints up to this exercise, the docstrings, --help and bare questions of this exercise and the earlier
-    ones, and the integrators' docstrings."""
-    import engine
+    ones, and engine.py, top to bottom, from the exercise before which the Next lines send the student to it."""
+    from curriculum.common.exercise import READ_FIRST
 
     readme = without_output_blocks((REPO / "README.md").read_text())
     readme = "\n".join(line for line in readme.splitlines() if not line.startswith("|"))  # the chapter's table
@@ -269,7 +278,8 @@ def read_before(number: int) -> dict:
              "exercises/README.md": without_output_blocks((REPO / "exercises" / "README.md").read_text())}
     hints = by_exercise((REPO / "exercises" / "HINTS.md").read_text(), "Exercise ")
     texts |= {f"exercises/HINTS.md, exercise {n}": text for n, text in hints.items() if n <= number}
-    texts |= {f"{step.__name__} docstring": step.__doc__ for step in engine.INTEGRATORS.values()}
+    if any("engine.py" in before and number >= n for n, before in READ_FIRST.items()):
+        texts["engine.py's docstrings and comments"] = prose_of(REPO / "engine.py")
     for n, module_name, _ in EXERCISES:
         if n > number:
             continue
@@ -313,8 +323,8 @@ def test_every_predict_then_run_exercise_has_its_answer_for_teachers(number, mod
 @pytest.mark.parametrize("number", [n for n, _, _ in EXERCISES])
 def test_nothing_a_student_reads_first_gives_an_answer_away(number):
     """Exercise `number`'s answer, in any of its forms, in nothing read before it: README, the exercises' README,
-    the hints, the docstrings, --help and bare questions, the integrators' passports, and the lessons and full
-    explanations the exercises before it printed."""
+    the hints, the docstrings, --help and bare questions, engine.py once the student is sent to it, and the
+    lessons and full explanations the exercises before it printed."""
     found = spoilers(number)
     leaks = [f"{where}: {leak}" for where, text in read_before(number).items() for leak in leaks_in(text, found)]
     # An earlier exercise's own figures may be this one's too (exercises 1, 4 and 7 all measure the orbit's

@@ -184,15 +184,11 @@ def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(ch
     ex5.record(tmp_path / "blob.rrd", chapter_table)
     _, entities, settings = read_recording(tmp_path / "blob.rrd")
     assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    assert settings["/selection_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    time_panel = settings["/time_panel"]
-    assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
-    assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
-    assert time_panel["TimePanelBlueprint:fps"] * course.PLAYBACK_SECONDS == pytest.approx(ex5.STEPS)
-
+    assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
     views = views_of(settings)
-    assert set(views) == {("3D", "phase"), ("TimeSeries", "area")}
-    assert views[("TimeSeries", "area")]["TimeAxis:view_range"] == opens_on(ex5.STEPS)
+    plots = {("TimeSeries", f"area/{name}") for name in chapter_table}
+    assert set(views) == {("3D", "phase"), *plots}
+    assert all(views[plot]["TimeAxis:view_range"] == opens_on(ex5.STEPS) for plot in plots)
     camera = views[("3D", "phase")]
     target, eye = np.array(camera["EyeControls3D:look_target"]), np.array(camera["EyeControls3D:position"])
     assert eye[1] == pytest.approx(target[1]) and eye[2] > target[2], "straight down: v_x up the screen"
@@ -209,27 +205,25 @@ def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(ch
     assert column(entities["/phase/key"], "Points3D:labels")[0] == [look.label for look in looks.values()]
 
 
-def test_the_area_plot_is_signed_with_round_off_as_a_labelled_floor(chapter_table, tmp_path):
-    """Up grows, down shrinks, on the floor stays: RK4's shrink and explicit Euler's growth point opposite ways,
-    and semi-implicit Euler's round-off lies flat on a grey line that says it is round-off."""
+def test_each_area_change_is_drawn_at_its_true_size_and_sign(chapter_table, tmp_path):
+    """Each integrator's area / area0 - 1 in its own plot, in units of a power of ten its title names, so its
+    largest value reads 1 to 10: explicit Euler's up to +1.23, RK4's down to -1.78 (units of 1e-09),
+    semi-implicit Euler's round-off titled as such; a grey 0 in each."""
     from test_recording import column, packed, read_recording
 
     ex5.record(tmp_path / "blob.rrd", chapter_table)
-    _, entities, _ = read_recording(tmp_path / "blob.rrd")
-    curves = {}
+    _, entities, settings = read_recording(tmp_path / "blob.rrd")
+    titles = {f["ViewBlueprint:space_origin"]: f["ViewBlueprint:display_name"] for f in settings.values()
+              if f.get("ViewBlueprint:class_identifier") == "TimeSeries"}
     for name, row in chapter_table.items():
         series = entities[f"/area/{name}"]
         assert column(series, "step") == list(range(ex5.STEPS + 1)), "from step 0, like the other plots"
-        curves[name] = np.ravel(column(series, "Scalars:scalars"))
-        with np.errstate(divide="ignore"):  # an area that did not change at all: -inf decades, drawn at 0
-            above = np.log10(np.abs(row["ratios"][1:])) - math.log10(ex5.SAME)  # decades above the floor, by hand
-        np.testing.assert_allclose(np.abs(curves[name][1:]), np.maximum(above, 0.0), atol=1e-12)
-    assert curves["euler"][-1] > 11 and (curves["euler"][1:] > 0).all(), "grows: up, from the first step"
-    assert curves["rk4"][-1] < -3 and (curves["rk4"] <= 0).all(), "shrinks: down"
-    assert (curves["semi_implicit"] == 0).all(), "stays: on the floor at every step"
-    floor = entities["/area/same"]
-    assert np.ravel(column(floor, "Scalars:scalars")).tolist() == [0.0, 0.0]
-    assert "round-off" in column(floor, "SeriesLines:names")[0][0]
-    assert column(floor, "SeriesLines:colors")[0] == [packed(course.GREY)], "grey: a reference, not an integrator"
-    widths = {name: column(entities[f"/area/{name}"], "SeriesLines:widths")[0][0] for name in chapter_table}
-    assert len(set(widths.values())) == len(widths), "lines on one another told apart by their widths"
+        drawn, unit = np.ravel(column(series, "Scalars:scalars")), ex5.unit_of(row["ratios"])
+        assert np.log10(unit) == round(np.log10(unit)) and 1 <= np.abs(drawn).max() < 10
+        np.testing.assert_allclose(drawn * unit, row["ratios"], rtol=1e-6)  # Rerun keeps float64 scalars
+        zero = entities[f"/area/{name}/zero"]
+        assert np.ravel(column(zero, "Scalars:scalars")).tolist() == [0.0, 0.0]
+        assert column(zero, "SeriesLines:colors")[0] == [packed(course.GREY)], "grey: a reference"
+        assert (f"in units of {unit:.0e}" in titles[f"area/{name}"]) == (unit != 1.0)
+    assert titles["area/euler"].endswith("at the end +1.23") and titles["area/rk4"].endswith("at the end -1.78e-09")
+    assert titles["area/semi_implicit"].endswith("at the end round-off (under 1e-12)")
