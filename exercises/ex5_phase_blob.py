@@ -199,7 +199,7 @@ def record(path: Path, table: dict) -> None:
         steps, plots = np.arange(STEPS + 1), []
         for name, row in table.items():
             unit, label = unit_of(row["ratios"]), looks[name].label
-            change = course.log_series(stream, f"area/{name}", steps, row["ratios"] / unit, looks[name])
+            change = course.log_series(stream, f"area/{name}/change", steps, row["ratios"] / unit, looks[name])
             course.log_series(stream, f"area/{name}/zero", [0, STEPS], [0.0, 0.0], course.Look(course.GREY, "0"))
             scale = "" if unit == 1.0 else f", in units of {unit:.0e}"
             verdict = f"round-off (under {SAME:g})" if abs(row["measured"]) < SAME else f"{row['measured']:+.3g}"

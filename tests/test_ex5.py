@@ -216,7 +216,7 @@ def test_each_area_change_is_drawn_at_its_true_size_and_sign(chapter_table, tmp_
     titles = {f["ViewBlueprint:space_origin"]: f["ViewBlueprint:display_name"] for f in settings.values()
               if f.get("ViewBlueprint:class_identifier") == "TimeSeries"}
     for name, row in chapter_table.items():
-        series = entities[f"/area/{name}"]
+        series = entities[f"/area/{name}/change"]
         assert column(series, "step") == list(range(ex5.STEPS + 1)), "from step 0, like the other plots"
         drawn, unit = np.ravel(column(series, "Scalars:scalars")), ex5.unit_of(row["ratios"])
         assert np.log10(unit) == round(np.log10(unit)) and 1 <= np.abs(drawn).max() < 10
