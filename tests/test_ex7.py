@@ -11,7 +11,6 @@ exercise prints, with tolerances argued from the arithmetic beside each.
 import re
 import subprocess
 import sys
-import time
 from fractions import Fraction
 
 import numpy as np
@@ -248,28 +247,6 @@ def test_with_damping_mujocos_euler_keeps_no_such_energy():
 # --- the exercise as a student runs it ---
 
 
-def test_bare_question_gives_the_formula_and_no_figure(tmp_path):
-    result = run_ex7(cwd=tmp_path)
-    assert result.returncode == 0 and result.stderr == ""
-    assert "E~ = E - (dt/2) v . grad V(q) = E + (dt/2) v . F(q)" in result.stdout
-    assert "as_far" in result.stdout and "smaller" in result.stdout and "roundoff" in result.stdout
-    text = result.stdout.replace("2000 steps of dt 0.01", "")
-    assert not re.search(r"\d\.\d|e-\d|\d{3}", text), text
-    assert list(tmp_path.iterdir()) == []  # asking writes nothing
-    help_text = run_ex7("--help").stdout + ex7.__doc__
-    for spoiler in ("kept exactly", "round-off only", "4.0", "7.7", "dt^2", "smaller by"):
-        assert spoiler not in help_text, spoiler
-
-
-@pytest.mark.parametrize("bad", ["spring=roundoff", "spring=tiny,orbit=smaller,freefall=roundoff", "orbit",
-                                 "spring=?,orbit=?,freefall=?"])
-def test_unreadable_prediction_gets_one_line(bad, tmp_path):
-    result = run_ex7("--predict", bad, cwd=tmp_path)
-    assert result.returncode == 2 and result.stdout == ""
-    assert len(result.stderr.splitlines()) == 1 and "Traceback" not in result.stderr
-    assert list(tmp_path.iterdir()) == []
-
-
 def test_graded_both_ways(capsys):
     assert ex7.main(["--predict", "Spring = round-off,", "orbit: smaller, freefall=roundoff", "--no-rerun"]) == 0
     right = capsys.readouterr().out
@@ -285,41 +262,6 @@ def test_graded_both_ways(capsys):
     assert "Hairer, Lubich and Wanner" in wrong and "mjINT_EULER" in wrong and "Hairer" not in right
     assert "E~'s band shrinks by 4.02 (dt^2), E's by 2.20 (dt)" in wrong
     assert "-9.3415e-02 of E0 after 20 s; measured -9.3415e-02" in wrong
-
-
-def test_answers_md_holds_the_graded_answer():
-    answers = (REPO / "exercises" / "solutions" / "ANSWERS.md").read_text()
-    section = answers.split("## Exercise 7")[1].split("\n## ")[0]
-    assert f"The graded answer is `{RIGHT}`." in section
-
-
-@pytest.mark.parametrize("signal_name, code", [("SIGINT", 130), ("SIGTERM", 143)])
-def test_a_signal_mid_run_ends_in_one_line_and_writes_nothing(signal_name, code, tmp_path):
-    """Ctrl-C or SIGTERM while it measures: one line, exit 130 or 143, no recording, no traceback. The signal
-    comes from inside the exercise's first engine.simulate call, so it lands mid-run on any machine's speed."""
-    signals_itself = (
-        "import os, runpy, signal, sys, engine\n"
-        "real = engine.simulate\n"
-        "def simulate(*args, **kwargs):\n"
-        f"    os.kill(os.getpid(), signal.{signal_name})\n"
-        "    return real(*args, **kwargs)\n"
-        "engine.simulate = simulate\n"
-        f"sys.argv = ['ex7', '--predict', {RIGHT!r}]\n"
-        "runpy.run_module('exercises.ex7_shadow_energy', run_name='__main__', alter_sys=True)\n")
-    result = subprocess.run([sys.executable, "-c", signals_itself], cwd=tmp_path, capture_output=True, text=True,
-                            env={"PYTHONPATH": str(REPO), "PATH": "", "COURSE_JOURNAL": "off"}, timeout=60)
-    assert result.returncode == code, result.stderr
-    err = result.stderr
-    assert len(err.splitlines()) == 1 and "no file was written" in err and "Traceback" not in err
-    assert list(tmp_path.iterdir()) == []
-
-
-@pytest.mark.slow
-def test_a_student_run_takes_under_ten_seconds(tmp_path):
-    start = time.perf_counter()
-    result = run_ex7("--predict", RIGHT, "--no-rerun", cwd=tmp_path)
-    assert result.returncode == 0 and result.stderr == ""
-    assert time.perf_counter() - start < 10.0
 
 
 # --- the recording, read back with Rerun's own reader ---
@@ -379,11 +321,7 @@ def test_the_recording_opens_on_three_plots_of_the_whole_run(recording):
         low, high = props["ScalarAxis:range"]
         floor = np.log10(chapter[origin]["roundoff"])
         assert low < floor and high > 0.0, f"{origin}: from the floor to an error as large as the quantity"
-    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    assert settings["/selection_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    time_panel = settings["/time_panel"]
-    assert time_panel["TimePanelBlueprint:timeline"] == "step"
-    assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
+    assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
 
 
 def test_the_recording_uses_the_course_palette(recording):
@@ -396,16 +334,6 @@ def test_the_recording_uses_the_course_palette(recording):
     assert colour == packed(course.COLOURS["semi_implicit"])  # E is semi-implicit Euler's, in its colour
     e_tilde = column(entities["/orbit/energy_shadow"], "SeriesLines:colors")[0][0]
     assert e_tilde in [packed(c) for c in course.SPARE_COLOURS], "E~ is no integrator: a colour none of them has"
-
-
-def test_an_unwritable_recording_path_gets_one_line_before_measuring(tmp_path):
-    blocker = tmp_path / "a_file"
-    blocker.write_text("")
-    result = run_ex7("--predict", RIGHT, "--rrd", str(blocker / "x.rrd"))
-    assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1
-    assert "a_file is a file" in result.stderr
-    result = run_ex7("--predict", RIGHT, "--rrd", "README.md")
-    assert result.returncode == 2 and result.stdout == "" and "does not end in .rrd" in result.stderr
 
 
 @pytest.mark.slow

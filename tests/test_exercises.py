@@ -16,10 +16,14 @@ import pytest
 import engine
 import engine_referee
 from conftest import REPO
+from curriculum.common.exercise import exercises
 from exercises import ex3_halve_dt, ex4_long_run
 
 STUDENT = REPO / "exercises" / "ex2_integrators.py"
 FIGURE = re.compile(r"\de[-+]\d|%|\d\.\d{2}")  # a measured number: 3.2e-04, 22.1%, 1.97
+PREDICT_THEN_RUN = [module for _, module, kind in exercises(REPO / "exercises") if kind == "predict"]
+RECORDING = {"ex5_phase_blob": "euler=grows,semi_implicit=stays,rk4=shrinks",  # those that write a recording
+             "ex7_shadow_energy": "spring=roundoff, orbit=smaller, freefall=roundoff"}
 
 
 def run_exercise(module, *args, cwd):
@@ -36,15 +40,18 @@ def one_line(text):
 # --- predict, then run ---
 
 
-@pytest.mark.parametrize("module", ["ex1_band", "ex3_halve_dt", "ex4_long_run"])
+@pytest.mark.parametrize("module", PREDICT_THEN_RUN)
 def test_no_prediction_no_figures(module, tmp_path):
+    """The question (exercise 7's with its formula), the accepted answers, how to commit; no figure, no file.
+    tests/test_docs.py reads the same question, docstring and --help for words that give the answer away."""
     result = run_exercise(module, cwd=tmp_path)
     assert result.returncode == 0 and result.stderr == ""  # asking is not an error
-    question, answers, blank, how = result.stdout.splitlines()  # these four lines and nothing else
-    assert question.endswith("?") and answers.startswith("Answer with") and blank == ""
+    *question, answers, blank, how = result.stdout.splitlines()
+    assert "?" in question[-1] + question[0] and answers.startswith("Answer with") and blank == ""
     assert how.endswith(f"python -m exercises.{module} --predict ANSWER [--because \"your reason\"]")
-    assert not FIGURE.search(result.stdout), "a figure leaked before the prediction"
+    assert not FIGURE.search(result.stdout.replace("dt 0.01", "")), "a figure leaked before the prediction"
     assert list(tmp_path.iterdir()) == []
+    assert ("E~ = E - (dt/2) v . grad V(q) = E + (dt/2) v . F(q)" in result.stdout) == (module == "ex7_shadow_energy")
 
 
 def test_more_goes_with_a_prediction(tmp_path):
@@ -60,11 +67,32 @@ def test_more_goes_with_a_prediction(tmp_path):
     ("ex3_halve_dt", "euler=3, semi_implicit=2, rk4=16", "one of 1, 2, 4, 8, 16, 32"),
     ("ex3_halve_dt", "euler=2", "name=value for each of euler, semi_implicit, rk4"),
     ("ex4_long_run", "12", "one of 10, 100, 1,000, 10,000, 100,000 (written 10000, 10,000, 10_000, 1e4 or 10k,"),
+    ("ex5_phase_blob", "euler=big,semi_implicit=stays,rk4=shrinks", "one of grows, stays, shrinks"),
+    ("ex5_phase_blob", "euler=grows,euler=grows,rk4=stays", "euler is given twice"),
+    ("ex6_stiff_damping", "rk4, verlet", "'verlet' is not an integrator here"),
+    ("ex7_shadow_energy", "spring=roundoff", "name=word for each of spring, orbit, freefall"),
+    ("ex7_shadow_energy", "spring=?,orbit=?,freefall=?", "put your value where the ? is"),
 ])
 def test_a_refused_prediction_is_one_line_that_lists_the_accepted_forms(module, bad, forms, tmp_path):
     result = run_exercise(module, "--predict", bad, cwd=tmp_path)
     assert result.returncode == 2 and result.stdout == ""
-    assert len(result.stderr.splitlines()) == 1 and forms in result.stderr
+    assert len(result.stderr.splitlines()) == 1 and forms in result.stderr and "Traceback" not in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("module", RECORDING)
+@pytest.mark.parametrize("target", ["a_file/x.rrd", "README.md", "exercises"])
+def test_a_recording_path_it_cannot_write_is_one_line_before_measuring(module, target, tmp_path):
+    """Under a file, or not an .rrd (a file or folder of the repo): one line, exit 2, nothing written."""
+    (tmp_path / "a_file").write_text("")
+    under_a_file = target.startswith("a_file")
+    path = tmp_path / target if under_a_file else REPO / target
+    before = path.stat().st_mtime_ns if path.exists() else None
+    result = run_exercise(module, "--predict", RECORDING[module], "--rrd", str(path), cwd=tmp_path)
+    assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1
+    assert ("a_file is a file" if under_a_file else "does not end in .rrd") in result.stderr
+    assert [p.name for p in tmp_path.iterdir()] == ["a_file"] and (tmp_path / "a_file").read_text() == ""
+    assert (path.stat().st_mtime_ns if path.exists() else None) == before
 
 
 @pytest.mark.slow
