@@ -23,18 +23,16 @@
 import argparse
 import atexit
 import contextlib
-import math
 import re
 import sys
 import textwrap
 from pathlib import Path
 
 from curriculum.common import interrupts, journal
-from curriculum.common.cli import shown
+from curriculum.common.cli import shown, whole_number
 from curriculum.common.exercise import EXERCISE_FILE, EXERCISES, next_line
 
-# What people call the integrators and the answers, as the chapter, MuJoCo and textbooks write them; keys and
-# values are compared without case, spaces, '_' or '-' (see _name_key), so "Backward Euler" is backwardeuler.
+# What people call the integrators and the answers, compared without case, spaces, '_' or '-' (_name_key).
 ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler",
            "symplecticeuler": "semiimplicit", "semiimpliciteuler": "semiimplicit", "symplectic": "semiimplicit",
            "impliciteuler": "implicit", "backwardeuler": "implicit",
@@ -59,10 +57,8 @@ class OneOf:
         spelling = "; '-' or a space may stand for '_'" if any("_" in name for name in self.names) else ""
         self.forms = f"one of {', '.join(self.names)} (any case{spelling})"
 
-    def find(self, text: str) -> str | None:
-        """The name `text` means, or None."""
-        key = _name_key(text)
-        key = ALIASES.get(key, key)
+    def find(self, text: str) -> str | None:  # the name `text` means, or None
+        key = ALIASES.get(_name_key(text), _name_key(text))
         return next((name for name in self.names if _name_key(name) == key), None)
 
     def parse(self, text: str) -> str:
@@ -85,15 +81,10 @@ class Number:
         words = text.split()
         if self.unit and len(words) > 1 and words[-1].lower() in (self.unit, f"{self.unit}s"):
             words = words[:-1]  # '1000 orbits' is 1000 orbits
-        try:
-            value = _number(" ".join(words))
-        except TwoReadings:
-            raise  # it says why
-        except ValueError:
-            value = None
+        value = _number(" ".join(words))  # TwoReadings says why
         if value not in self.choices:
             raise ValueError(f"{_shown(text)} is not {self.forms}")
-        return value
+        return int(value)
 
 
 class PerName:
@@ -105,8 +96,9 @@ class PerName:
         self.words = OneOf(self.values) if all(isinstance(v, str) for v in self.values) else None
         what = "word" if self.words else "value"
         self.choices = ", ".join(str(v) if self.words else f"{v:g}" for v in self.values)
+        like = ", ".join(f"{name}={letter}" for name, letter in zip(self.names.names, "ABCDEFGH", strict=False))
         self.forms = (f"name={what} for each of {', '.join(self.names.names)}, separated by commas,"
-                      f" each {what} one of {self.choices} ({template(self.names.names, what)})")
+                      f" each {what} one of {self.choices} (like {like}, with your {what} for each letter)")
 
     def parse(self, text: str) -> dict:
         prediction = {}
@@ -137,11 +129,9 @@ class PerName:
                 value = _number(text)
             except TwoReadings as problem:
                 raise ValueError(f"in {item}, {problem}") from None
-            except ValueError:
-                value = None
         if value not in self.values:
             raise ValueError(f"in {item}, {_shown(text, quoted=False)} is not one of {self.choices}")
-        return value
+        return value if self.words else int(value)
 
 
 class SomeOf:
@@ -153,12 +143,10 @@ class SomeOf:
         self.forms = f"{chosen}, from {', '.join(self.names.names)}, separated by commas (or 'none', or 'all')"
 
     def parse(self, text: str) -> frozenset:
-        words = [word.lower() for word in _words(text) if word.lower() != "and"]
-        if words in (["none"], ["none", "of", "them"]):
-            return frozenset()
-        count = len(self.names.names)
-        if words[:1] == ["all"] and words[1:] in ([], ["of", "them"], [str(count)], [SPELLED.get(count)]):
-            return frozenset(self.names.names)
+        words = [word for word in re.split(r"[\s,;+]+", text.lower()) if word not in ("", "and")]  # one pass
+        count = len(self.names.names)  # 'none', 'none of them', 'all', 'all of them', 'all four', 'all 4'
+        if words[:1] in (["none"], ["all"]) and words[1:] in ([], ["of", "them"], [str(count)], [SPELLED.get(count)]):
+            return frozenset(self.names.names if words[0] == "all" else ())
         if not words:
             raise ValueError(f"the answer is empty: answer with {self.forms}")
         chosen, at = [], 0
@@ -175,13 +163,6 @@ class SomeOf:
                     raise ValueError(f"'{word}' goes alone: answer with {self.forms}")
                 raise ValueError(f"{_shown(word)} is not {self.kind} here: answer with {self.forms}")
         return frozenset(chosen)
-
-
-def template(names, what: str = "value") -> str:
-    """The shape of a per-name answer: 'like euler=A, semi_implicit=B, rk4=C, with your value for each letter'."""
-    letters = "ABCDEFGH"[: len(names)]
-    return f"like {', '.join(f'{name}={letter}' for name, letter in zip(names, letters, strict=True))}," \
-           f" with your {what} for each letter"
 
 
 def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, variant=None, check=None):
@@ -353,13 +334,6 @@ def _shown(text: str, limit: int = 40, quoted: bool = True) -> str:
     return repr(text) if quoted else shown(text, None)  # repr escapes; unquoted, shown() does
 
 
-def _words(text: str) -> list:
-    """The words of an answer: split at spaces, commas, semicolons and '+'. One pass over the text."""
-    for separator in SEPARATORS + "+":
-        text = text.replace(separator, " ")
-    return text.split()
-
-
 def _pairs(text: str, forms: str):
     """(name text, value text) for each item of 'euler=8, semi implicit: 4 rk4=1', one at a time: split at '='
     or ':', between two of them a value, then (after a comma, a semicolon or a space) the next name."""
@@ -387,29 +361,18 @@ def _value_then_name(text: str) -> tuple[str, str]:
     """'8, semi implicit ' -> ('8', 'semi implicit'): the value ends at the first comma or semicolon, or else
     at the first space after it."""
     stripped = text.strip()
-    for at, ch in enumerate(stripped):
-        if ch in SEPARATORS:
-            return stripped[:at], stripped[at + 1:]
-    value, _, name = stripped.partition(" ")
-    return value, name
+    parts = re.split(r"[,;]", stripped, maxsplit=1)
+    return tuple(parts) if len(parts) == 2 else stripped.partition(" ")[::2]
 
 
-def _number(text: str) -> int:
-    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' / '10k' -> 10000; ValueError if not a whole number,
+def _number(text: str):
+    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' / '10k' -> 10000 (a Decimal), None if no whole number;
     TwoReadings for '1.000' (a thousand in much of Europe, one here)."""
-    shown = _shown(text)
     text = " ".join(text.split()).lower()
     if re.fullmatch(r"\d{1,3}(?:\.\d{3})+", text):  # fixed-width groups: linear
-        raise TwoReadings(f"{shown} could be read two ways: write it without the dot")
-    if re.fullmatch(r"\d{1,3}(?:[,_ ]\d{3})+", text):  # 10,000 / 10_000 / 10 000
-        text = text.replace(",", "").replace("_", "").replace(" ", "")
-    scale = 1
-    if text.endswith("k") and len(text) > 1:  # 10k: ten thousand
-        text, scale = text[:-1].strip(), 1000
-    try:
-        value = float(text) * scale
-    except ValueError:
-        raise ValueError(f"{shown} is not a number") from None
-    if not math.isfinite(value) or value != int(value):
-        raise ValueError(f"{shown} is not a whole number")
-    return int(value)
+        raise TwoReadings(f"{_shown(text)} could be read two ways: write it without the dot")
+    if re.fullmatch(r"\d{1,3}(?: \d{3})+", text):  # 10 000
+        text = text.replace(" ", "")
+    scale = 1000 if text.endswith("k") and len(text) > 1 else 1  # 10k: ten thousand
+    number = whole_number(text[:-1] if scale > 1 else text)
+    return None if number is None else number * scale
