@@ -344,6 +344,23 @@ def test_readme_shows_the_measurement_then_asks_for_exercise_1():
     assert "What exercise 1 measures" not in readme
 
 
+def test_readmes_map_names_code_that_exists_where_it_says():
+    """README's "The chapter in the code": every `module.name` and every `file`: `name` it gives is defined there,
+    and each of the chapter's five listings has its row."""
+    readme = (REPO / "README.md").read_text()
+    rows = readme.split("## The chapter in the code")[1].split("\n\n")[1].splitlines()[2:]
+    assert len(rows) >= 5 and {"`build_system`", "`simulate`", "`log_rerun`", "`COLORS`"} <= set(re.findall(
+        r"`\w+`", " ".join(row.split("|")[1] for row in rows)))
+    for row in rows:
+        here = row.split("|")[2]
+        named = re.findall(r"`(\w+)\.(?!py`)(\w+)`", here) + [(path[:-3].replace("/", "."), name) for path, names in
+                                                       re.findall(r"`([\w/]+\.py)`: ([^;|]+)", here)
+                                                       for name in re.findall(r"`(\w+)`", names)]
+        assert named, row
+        for module, name in named:
+            assert hasattr(importlib.import_module(module), name), f"README's map: {module} has no {name}"
+
+
 def test_readmes_pasted_runs_are_what_the_engine_prints(tmp_path):
     """README's two pasted runs, line for line (the default run whole, but for its wall clock; the freefall's table)."""
     import engine
@@ -568,27 +585,26 @@ def test_rk4s_round_off_digits_are_what_exact_arithmetic_says():
     system = engine.build_system("orbit", np.random.default_rng(0))
     with localcontext() as context:
         context.prec = 50
-        q, v, dt = [Decimal(x) for x in system["q0"][:2]], [Decimal(x) for x in system["v0"][:2]], Decimal(0.01)
+        state, dt = [Decimal(x) for x in [*system["q0"][:2], *system["v0"][:2]]], Decimal(0.01)  # x, y, vx, vy
 
-        def pull(q):
-            r2 = q[0] * q[0] + q[1] * q[1]
-            return [-x / (r2 * r2.sqrt()) for x in q]
+        def slope(s):  # (v, the pull): r^-3 times -q
+            r2 = s[0] * s[0] + s[1] * s[1]
+            return [s[2], s[3], -s[0] / (r2 * r2.sqrt()), -s[1] / (r2 * r2.sqrt())]
 
-        def energy(q, v):
-            return (v[0] * v[0] + v[1] * v[1]) / 2 - 1 / (q[0] * q[0] + q[1] * q[1]).sqrt()
+        def energy(s):
+            return (s[2] * s[2] + s[3] * s[3]) / 2 - 1 / (s[0] * s[0] + s[1] * s[1]).sqrt()
 
-        def moved(a, b, h):
-            return [x + h * y for x, y in zip(a, b, strict=True)]
+        def moved(s, k, h):
+            return [x + h * y for x, y in zip(s, k, strict=True)]
 
-        e0, errors = energy(q, v), []
+        e0, errors = energy(state), []
         for _ in range(2000):
-            k1q, k1v = v, pull(q)
-            k2q, k2v = moved(v, k1v, dt / 2), pull(moved(q, k1q, dt / 2))
-            k3q, k3v = moved(v, k2v, dt / 2), pull(moved(q, k2q, dt / 2))
-            k4q, k4v = moved(v, k3v, dt), pull(moved(q, k3q, dt))
-            q = [x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(q, k1q, k2q, k3q, k4q, strict=True)]
-            v = [x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(v, k1v, k2v, k3v, k4v, strict=True)]
-            errors.append((energy(q, v) - e0) / abs(e0))
+            k1 = slope(state)
+            k2 = slope(moved(state, k1, dt / 2))
+            k3 = slope(moved(state, k2, dt / 2))
+            k4 = slope(moved(state, k3, dt))
+            state = [x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(state, k1, k2, k3, k4, strict=True)]
+            errors.append((energy(state) - e0) / abs(e0))
     developing = (REPO / "docs" / "DEVELOPING.md").read_text()
     exact_final, exact_max = float(errors[-1]), float(max(abs(e) for e in errors))
     assert f"give {exact_final:.4e} and {exact_max:.4e}" in " ".join(developing.split())
