@@ -116,23 +116,11 @@ def test_graded_both_ways(capsys):
 
 @pytest.mark.slow
 def test_as_a_student_runs_it_with_the_recording(tmp_path):
-    """A fresh interpreter, the recording written and read back with Rerun's own reader."""
+    """A fresh interpreter: graded, and the recording written (what it holds: the tests below)."""
     rrd = tmp_path / "blob.rrd"
     right = run_ex5("--predict", "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(rrd))
     assert right.returncode == 0 and right.stderr == "", right.stderr
-    assert "Right: euler grows, semi_implicit stays, rk4 shrinks." in right.stdout
-
-    rerun_chunk = pytest.importorskip("rerun.chunk")
-    reader = rerun_chunk.RrdReader(rrd)
-    (recording,) = reader.recordings()
-    steps = {}
-    for chunk in reader.stream(store=recording).to_chunks():
-        batch = chunk.to_record_batch()
-        if chunk.entity_path.startswith("/phase/") and "step" in batch.schema.names:
-            steps.setdefault(chunk.entity_path, []).extend(batch.column("step").to_pylist())
-    assert set(steps) == {f"/phase/{name}" for name in engine.CHAPTER_INTEGRATORS}
-    for frames in steps.values():
-        assert sorted(frames) == list(range(0, ex5.STEPS + 1, ex5.RECORD_EVERY))
+    assert "Right: euler grows, semi_implicit stays, rk4 shrinks." in right.stdout and rrd.stat().st_size > 0
 
 
 def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(chapter_table, tmp_path):

@@ -1,8 +1,6 @@
-"""The exercises, in both directions: right answers pass; the pristine stub and planted mistakes fail, each
-with the message that names its mistake. The student's own exercises/ex2_integrators.py is never graded here,
-so a student who solved it in place keeps a green suite.
-
-Quick by default; the whole planted collection and exercise 4's full run are marked slow (pytest -m slow).
+"""The predict-then-run exercises as a student meets them: the question and no figure, a refusal in one line, a
+recording it cannot write refused before it measures; then what exercises 3, 4 and 5 measure. A right prediction's
+whole run is ANSWERS.md's (tests/test_docs.py reruns it); exercise 4's full run is marked slow.
 """
 
 import os
@@ -19,7 +17,6 @@ from conftest import REPO
 from curriculum.common.exercise import exercises
 from exercises import ex3_halve_dt, ex4_long_run
 
-STUDENT = REPO / "exercises" / "ex2_integrators.py"
 FIGURE = re.compile(r"\de[-+]\d|%|\d\.\d{2}")  # a measured number: 3.2e-04, 22.1%, 1.97
 PREDICT_THEN_RUN = [module for _, module, kind in exercises(REPO / "exercises") if kind == "predict"]
 RECORDING = {"ex5_phase_blob": "euler=grows,semi_implicit=stays,rk4=shrinks",  # those that write a recording
@@ -47,7 +44,7 @@ def test_no_prediction_no_figures(module, tmp_path):
     result = run_exercise(module, cwd=tmp_path)
     assert result.returncode == 0 and result.stderr == ""  # asking is not an error
     *question, answers, blank, how = result.stdout.splitlines()
-    assert "?" in question[-1] + question[0] and answers.startswith("Answer with") and blank == ""
+    assert "?" in "\n".join(question) and answers.startswith("Answer with") and blank == ""
     assert how.endswith(f"python -m exercises.{module} --predict ANSWER [--because \"your reason\"]")
     assert not FIGURE.search(result.stdout.replace("dt 0.01", "")), "a figure leaked before the prediction"
     assert list(tmp_path.iterdir()) == []
@@ -95,12 +92,6 @@ def test_a_recording_path_it_cannot_write_is_one_line_before_measuring(module, t
     assert (path.stat().st_mtime_ns if path.exists() else None) == before
 
 
-@pytest.mark.slow
-def test_ex1_a_right_prediction_is_graded_right(tmp_path):
-    right = run_exercise("ex1_band", "--predict", "Euler=grows, semi-implicit=stays, RK4=grows", cwd=tmp_path)
-    assert right.returncode == 0 and "Right: euler grows, semi_implicit stays, rk4 grows." in right.stdout
-
-
 @pytest.mark.parametrize("system_name", ["orbit", "spring"])
 def test_ex3_every_factor_shown_is_the_methods_own(system_name):
     """Each factor shown is near its order's 2^p and heads there; only RK4's finest rungs reach the round-off floor
@@ -138,13 +129,6 @@ def test_ex5_the_needles_area_change_is_the_shoelace_formulas_rounding_not_the_p
     areas, x, v = ex5.run_blob("semi_implicit", ex5.PAST_LIMIT_DT, ex5.PAST_LIMIT_STEPS)
     exact_change = float(ex5.exact_area(x[-1], v[-1]) / ex5.exact_area(x[0], v[0]) - 1)
     assert abs(exact_change) < 1e-10 < 1e-9 < abs(areas[-1] / areas[0] - 1)  # +2.4e-11 and -4.7e-9 when measured
-
-
-@pytest.mark.slow
-def test_ex3_a_right_prediction_scores_three_and_the_orbit_story_is_told(tmp_path):
-    right = run_exercise("ex3_halve_dt", "--predict", "euler=2, semi_implicit=2, rk4=16", "--more", cwd=tmp_path)
-    assert right.returncode == 0 and "Right: euler 2, semi_implicit 2, rk4 16." in right.stdout
-    assert "slides towards 16" in one_line(right.stdout)
 
 
 def test_ex3_grades_each_integrator_and_explains_the_system_it_ran(tmp_path):
