@@ -99,8 +99,8 @@ def main(argv=None) -> int:
             " multiplies v by 1 - c: past c = 2 it flips sign and grows. RK4 takes it at old velocities too, four"
             f" times a step, which moves its limit to c = {bounds['rk4'][1]:.3f} on this spring: it survives"
             f" {c:g}, not 3. The implicit step takes the damping at the new velocity and divides v by 1 + c:"
-            " bounded at any damping, as MuJoCo's default Euler is on a damped joint. A higher order only moves"
-            " the limit; the new velocity removes it.",
+            " bounded at any damping, as MuJoCo's default Euler is on a damped joint. Order moves the limit;"
+            " the new velocity removes it.",
             more=lambda: the_whole_story(c, w, bounds))
     return 0
 
