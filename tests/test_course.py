@@ -25,7 +25,7 @@ import pytest
 from conftest import REPO
 from curriculum.common import journal
 from curriculum.common.cli import OneLineParser
-from curriculum.common.exercise import EXERCISES, READ_ON, command, exercises, next_line, titles
+from curriculum.common.exercise import EXERCISES, READ_FIRST, READ_ON, command, exercises, next_line, titles
 from curriculum.common.predict import OneOf, ask, verdict
 from curriculum.grading import score
 
@@ -215,7 +215,8 @@ def test_next_lines_come_from_the_exercises_on_disk_and_their_readme():
     named = titles(EXERCISES)
     assert sorted(named) == [n for n, _, _ in FOUND] and named[3] == "Halve the timestep"
     for (number, _, _), (following, module, kind) in zip(FOUND, FOUND[1:], strict=False):
-        said = f'Next: exercise {following}, "{named[following]}": {command(module, kind)}'
+        first = READ_FIRST.get(following, "")  # engine.py, where README sends the student to read it
+        said = f'Next: {first}exercise {following}, "{named[following]}": {command(module, kind)}'
         assert next_line(EXERCISES, number) == said
     assert READ_ON in next_line(EXERCISES, FOUND[-1][0]) and (REPO / READ_ON.split(",")[0]).is_file()
     for _, module, kind in FOUND:

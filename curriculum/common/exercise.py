@@ -17,6 +17,8 @@ from curriculum.common.interrupts import install
 EXERCISE_FILE = re.compile(r"ex(\d+)_\w+\.py")
 EXERCISES = Path(__file__).resolve().parents[2] / "exercises"  # this chapter's: beside curriculum/
 READ_ON = "exercises/solutions/ANSWERS.md, the answers with the commands that print them"  # after the last one
+# Where README.md sends the student to read engine.py: after exercise 5, whose answers (and 3's) its declarations state
+READ_FIRST = {6: "read engine.py top to bottom (README.md maps the chapter's code to it), then "}
 
 
 def start(file: str) -> None:
@@ -60,4 +62,4 @@ def next_line(folder, number: int) -> str:
     if not later:
         return f"Next: that was the last one. python -m exercises shows what is left; then read {READ_ON}."
     n, module, kind = later[0]
-    return f'Next: exercise {n}, "{titles(folder).get(n, module)}": {command(module, kind)}'
+    return f'Next: {READ_FIRST.get(n, "")}exercise {n}, "{titles(folder).get(n, module)}": {command(module, kind)}'

@@ -229,8 +229,8 @@ def log_key(stream, entity: str, looks: dict, paths):
 
 
 def log_axes(stream, entity: str, low, high, names: tuple[str, str], scales=(1.0, 1.0)) -> None:
-    """Two axes through the origin spanning low..high (x, y), named past their tips, ticked at round numbers (a much
-    shorter axis as sparsely as the longer); an axis drawn `scales[i]` times its size labels true units."""
+    """Two axes through the origin spanning low..high (x, y), named past their tips, ticked at round numbers as far
+    apart on both (a short axis's labels never crowd); an axis drawn `scales[i]` times its size labels true units."""
     import rerun as rr
 
     grey = [GREY]
@@ -242,12 +242,10 @@ def log_axes(stream, entity: str, low, high, names: tuple[str, str], scales=(1.0
                        show_labels=True)
     stream.log(f"{entity}/names", tips, static=True)
     ticks = []
-    longest = max(abs(x0), abs(x1), abs(y0), abs(y1))
+    longest = max(abs(x0), abs(x1), abs(y0), abs(y1))  # one spacing for both axes, from the longer: 4 to 9 ticks
+    unit = 10.0 ** math.floor(math.log10(longest)) if longest > 0.0 else 1.0
+    unit /= 5.0 if longest < 2.0 * unit else 2.0 if longest < 5.0 * unit else 1.0
     for axis, (start, end) in enumerate(((x0, x1), (y0, y1))):
-        length = max(abs(start), abs(end), 0.25 * longest)
-        unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0  # 1 to 9 ticks each way
-        if length < 2.0 * unit:  # 1.0 to 1.99: ticks every half unit, so that one lands inside the tip
-            unit /= 2.0
         for k in range(math.ceil(start / unit), math.floor(end / unit) + 1):
             at_tip = abs(k * unit - end) < 0.15 * (end - start)  # a tick there would sit under the axis name
             if k and not at_tip:
