@@ -19,7 +19,7 @@ from pathlib import Path
 from curriculum.common import exercise, journal
 from curriculum.common.cli import OneLineParser, shown
 from curriculum.common.exercise import EXERCISES
-from curriculum.common.outputs import folder_problem, one_line_failures, write_atomic
+from curriculum.common.outputs import folder_problem, one_line_failures, planted, write_atomic
 
 
 @one_line_failures("python -m exercises")
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
         return reset(parser, found, args.reset)
     if args.handin:
         out = args.out or Path("outputs/handin.zip")
-        problem = folder_problem(out.parent, [out.name]) or journal.planted(out)
+        problem = folder_problem(out.parent, [out.name]) or planted(out)
         if problem:
             parser.error(f"--out: {problem}")
         return handin(found, out)
