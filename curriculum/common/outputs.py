@@ -3,7 +3,6 @@ signals wait; the previous files kept on any failure), the check of --out before
 failure is one line."""
 
 import contextlib
-import errno
 import functools
 import hashlib
 import os
@@ -62,12 +61,8 @@ def folder_problem(out: Path, names=()) -> str | None:
         while not os.path.lexists(existing) and existing != existing.parent:
             existing = existing.parent
         if not os.path.isdir(existing):
-            try:
-                info = os.stat(existing)  # a symbolic link that loops raises here (ELOOP)
-            except FileNotFoundError:
-                return f"{_p(out)} cannot be used: {_p(existing)} is a symbolic link to" \
-                       f" {_p(os.readlink(existing))}, which does not exist"
-            what = "a file" if stat.S_ISREG(info.st_mode) else "not a folder"
+            what = "a file" if os.path.isfile(existing) else "not a folder" if os.path.exists(existing) else \
+                "a symbolic link that leads nowhere or loops"
             return f"{_p(out)} cannot hold files: {_p(existing)} is {what}"
         longest = max([*out.parts, *names], key=len, default="")
         if len(os.fsencode(longest)) > 255:
@@ -78,8 +73,6 @@ def folder_problem(out: Path, names=()) -> str | None:
             if os.path.isdir(out / name):
                 return f"{_p(out / name)} is a folder; move it away or choose another output folder"
     except OSError as error:
-        if error.errno == errno.ELOOP:
-            return f"{_p(out)} cannot be used: it goes through a symbolic link that loops"
         if isinstance(error, FileNotFoundError):  # the folders exist, yet "no such file": /proc and its kind
             return f"cannot create a file in {_p(out)}: {_p(existing)} exists but does not let files or folders be" \
                    " created in it"
