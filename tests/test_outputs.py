@@ -145,7 +145,6 @@ BAD_OUT = {
     "under /sys": ("/sys/kernel/ch3.3-out", "cannot create a file in /sys/kernel/ch3.3-out"),
     "dangling symlink": ("dangling", "dangling is a symbolic link that leads nowhere"),
     "looping symlink": ("loop", "loop is a symbolic link that leads nowhere or loops"),
-    "300-character name": (f"new/{'x' * 300}/out", "a name in it is 300 characters"),
     "metrics.json is a folder": ("taken", "metrics.json is a folder"),
     "empty": ("", "the output folder is empty"),
 }

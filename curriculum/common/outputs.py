@@ -11,7 +11,6 @@ import signal
 import stat
 import sys
 import tempfile
-import threading
 from pathlib import Path
 
 from curriculum.common import interrupts
@@ -64,10 +63,6 @@ def folder_problem(out: Path, names=()) -> str | None:
             what = "a file" if os.path.isfile(existing) else "not a folder" if os.path.exists(existing) else \
                 "a symbolic link that leads nowhere or loops"
             return f"{_p(out)} cannot hold files: {_p(existing)} is {what}"
-        longest = max([*out.parts, *names], key=len, default="")
-        if len(os.fsencode(longest)) > 255:
-            return f"{_p(out)} cannot be created: a name in it is {len(longest)} characters, longer than the file" \
-                   " system allows (255)"
         tempfile.TemporaryFile(dir=existing).close()  # O_TMPFILE where it can: nothing is left, even for a moment
         for name in names:
             if os.path.isdir(out / name):
@@ -111,15 +106,19 @@ def write_run(folder: Path, files: dict) -> None:
     """Replace the files {name: bytes or str} in `folder` together, in the order given, creating `folder` if
     needed; writers into one folder take turns. OutputError: one line, no temporary file left, the previous kept."""
     folder, names = Path(folder), list(files)
-    kept = _kept(folder, names)
+    kept = f"{_p(folder / names[0])} was left as it was" if len(names) == 1 else \
+        f"{' and '.join(names)} in {_p(folder)} were left as they were"
     interrupts.said(kept)  # what a signal would say from here on
     problem = planted(folder)
     if problem:
         raise OutputError(f"{problem}; {kept}", exit_code=2)
-    temps, renamed, current = {}, [], None
+    temps, renamed, current, lock = {}, [], None, None
     try:
         os.makedirs(folder, exist_ok=True)
-        with _locked(folder) as lock, signals_held():
+        lock = os.open(folder, os.O_RDONLY | os.O_CLOEXEC)  # flocked: writers take turns, and no lock file is left
+        with contextlib.suppress(OSError, AttributeError):  # no flock (Windows, some file systems): still atomic
+            fcntl.flock(lock, fcntl.LOCK_EX)
+        with signals_held():
             try:
                 for current, data in files.items():
                     temps[current] = folder / f".{current}.{secrets.token_hex(8)}.tmp"
@@ -144,37 +143,18 @@ def write_run(folder: Path, files: dict) -> None:
             kept = f"only {' and '.join(renamed)} in {_p(folder)} {'is' if len(renamed) == 1 else 'are'} new"
         raise OutputError(f"cannot write {_p(folder / current if current else folder)}: {error.strerror or error};"
                           f" {kept}") from None
+    finally:
+        if lock is not None:
+            os.close(lock)  # releases the lock
 
 
 def write_atomic(path: Path, data: bytes | str) -> None:
     write_run(Path(path).parent, {Path(path).name: data})
 
 
-def _kept(folder: Path, names) -> str:
-    if len(names) == 1:
-        return f"{_p(folder / names[0])} was left as it was"
-    return f"{' and '.join(names)} in {_p(folder)} were left as they were"
-
-
-@contextlib.contextmanager
-def _locked(folder: Path):
-    """The folder open and flocked (no lock file is left); waiting can be interrupted."""
-    fd = os.open(folder, os.O_RDONLY | os.O_CLOEXEC)
-    try:
-        with contextlib.suppress(OSError, AttributeError):  # no flock (Windows, some file systems): still atomic
-            fcntl.flock(fd, fcntl.LOCK_EX)
-        yield fd
-    finally:
-        os.close(fd)  # releases the lock
-
-
 @contextlib.contextmanager
 def signals_held():
-    """Hold Ctrl-C and SIGTERM until the block is done, then raise them again. The handlers are swapped, not the
-    mask blocked: Rerun's threads could receive a blocked signal."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+    """Hold SIGINT and SIGTERM, then raise them again (a swapped handler: Rerun's threads ignore a signal mask)."""
     arrived, previous = [], {}
     try:
         for number in (signal.SIGINT, signal.SIGTERM):
@@ -188,8 +168,7 @@ def signals_held():
 
 
 def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
-    """Decorate a main(argv) -> int: an OutputError is one line and its exit code; any other OSError or a
-    MemoryError is one line and exit 1. Each line says what happened to the run's files."""
+    """Decorate a main(argv) -> int: an OutputError, OSError or MemoryError is one line saying what was written."""
 
     def decorate(main):
         @functools.wraps(main)

@@ -36,8 +36,8 @@ def sim_time(seconds: float) -> str:
 
 
 def write_outputs(out, metrics: dict, metrics_file: str, recording=None) -> str | None:
-    """Write metrics.json and, if `recording` is (file name, record), the recording (record(run_id) returns its
-    bytes and a note), together; "run_id" is the content_id of metrics.json without it. Returns the note."""
+    """Write metrics.json (its run_id the content_id of itself without it) and, with `recording` = (name, record),
+    record(run_id)'s bytes together. Returns record's note."""
     metrics["run_id"] = content_id(metrics_text(metrics))
     files, note = {}, None
     if recording:
