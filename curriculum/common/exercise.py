@@ -24,13 +24,9 @@ def start(file: str) -> None:
 
 def exercises(folder) -> list:
     """[(number, module name, "code" or "predict")] for every exN_topic.py in `folder`, by number."""
-    found = []
-    for path in Path(folder).iterdir():
-        match = EXERCISE_FILE.fullmatch(path.name)
-        if match:
-            kind = "code" if (path.parent / f"check_ex{match.group(1)}.py").exists() else "predict"
-            found.append((int(match.group(1)), path.stem, kind))
-    return sorted(found)
+    found = [(match[1], path) for path in Path(folder).iterdir() if (match := EXERCISE_FILE.fullmatch(path.name))]
+    return sorted((int(n), path.stem, "code" if (path.parent / f"check_ex{n}.py").exists() else "predict")
+                  for n, path in found)
 
 
 def titles(folder) -> dict:

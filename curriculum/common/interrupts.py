@@ -4,6 +4,7 @@ kept true by outputs.write_run; outputs.signals_held() holds a signal until its 
 returns, the last exit handler ends the process with its exit code, skipping Python's slow shutdown."""
 
 import atexit
+import contextlib
 import os
 import signal
 import sys
@@ -55,18 +56,14 @@ def finished(text: str, code: int | None) -> None:
 
 def say(line: str) -> None:
     """Write one line to stderr, now and unbuffered; never raises."""
-    try:
+    with contextlib.suppress(OSError):
         os.write(2, f"{line}\n".encode(errors="backslashreplace"))
-    except OSError:
-        pass
 
 
 def _flush() -> None:
     for stream in (sys.stdout, sys.stderr):
-        try:
+        with contextlib.suppress(OSError, ValueError, AttributeError):
             stream.flush()
-        except (OSError, ValueError, AttributeError):
-            pass
 
 
 def _stop(number, frame):

@@ -2,6 +2,7 @@
 signals wait; the previous files kept on any failure), the check of --out before the run, and a main() whose every
 failure is one line."""
 
+import argparse
 import contextlib
 import functools
 import hashlib
@@ -37,8 +38,6 @@ def content_id(data: bytes | str) -> str:
 
 def folder_arg(text: str) -> Path:
     """Argument type for an output folder: not empty, no control character or bidi override."""
-    import argparse
-
     if not text.strip():
         raise argparse.ArgumentTypeError("the output folder is empty; name one, e.g. outputs/run1")
     if UNSHOWN.search(text):

@@ -47,13 +47,9 @@ def opening(story, last_step: int, timeline: str = "step"):
 
     if isinstance(story, list | tuple):  # several views: one under the other
         story = rrb.Vertical(*story)
-    return rrb.Blueprint(
-        story,
-        rrb.BlueprintPanel(state="hidden"),
-        rrb.SelectionPanel(state="hidden"),
-        rrb.TimePanel(state="collapsed", timeline=timeline, play_state="following",
-                      fps=max(int(last_step) / PLAYBACK_SECONDS, 1.0)),
-    )
+    return rrb.Blueprint(story, rrb.BlueprintPanel(state="hidden"), rrb.SelectionPanel(state="hidden"),
+                         rrb.TimePanel(state="collapsed", timeline=timeline, play_state="following",
+                                       fps=max(int(last_step) / PLAYBACK_SECONDS, 1.0)))
 
 
 def recorded(application_id: str, fill, recording_id: str | None = None) -> bytes:
