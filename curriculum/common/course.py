@@ -3,9 +3,6 @@
     python -m exercises                      # the board: every exercise, its status and when, the next command
     python -m exercises --reset N            # start exercise N over; its records stay, marked as reset
     python -m exercises --handin             # outputs/handin.zip: the journal and the code exercises' files
-
-Read, not kept by hand: the exercises from their files, titles from exercises/README.md, the rest from the journal.
-The board loads nothing heavy and counts what a grade counts. A teacher's `--grade` goes to curriculum.grading.
 """
 
 import argparse
@@ -19,7 +16,7 @@ from pathlib import Path
 from curriculum.common import exercise, journal
 from curriculum.common.cli import OneLineParser, shown
 from curriculum.common.exercise import EXERCISES
-from curriculum.common.outputs import folder_problem, one_line_failures, write_atomic
+from curriculum.common.outputs import folder_problem, one_line_failures, planted, write_atomic
 
 
 @one_line_failures("python -m exercises")
@@ -44,7 +41,7 @@ def main(argv=None) -> int:
         return reset(parser, found, args.reset)
     if args.handin:
         out = args.out or Path("outputs/handin.zip")
-        problem = folder_problem(out.parent, [out.name]) or journal.planted(out)
+        problem = folder_problem(out.parent, [out.name]) or planted(out)
         if problem:
             parser.error(f"--out: {problem}")
         return handin(found, out)
@@ -102,8 +99,7 @@ def reset(parser, found, number: int) -> int:
 
 
 def handin(found, out: Path) -> int:
-    """One zip of the journal and the code exercises' files as they are (same files, same bytes); a file over
-    journal.MAX_BYTES is left out, and said, and so is what the board would note."""
+    """One zip of the journal and the code exercises' files as they are; a file over MAX_BYTES is left out, said."""
     book, files = journal.load(), {f"exercises/{m}.py": EXERCISES / f"{m}.py" for _, m, k in found if k == "code"}
     members = {name: data for name, path in {"exercises/journal.jsonl": journal.where(), **files}.items()
                if path and (data := journal.own_file(path)) is not None}

@@ -1,12 +1,5 @@
-"""What every exercise shares: its first line, and how the course finds its exercises.
-
-- `start(__file__)`, an exercise's first line: the signal guard (only in the exercise being run), and the repo on
-  the import path, so `python exercises/ex1_band.py` works as `python -m exercises.ex1_band` does.
-- `exercises(folder)`: a chapter's exercises from their file names, `exN_topic.py`, in order; one with a checker
-  beside it (`check_exN.py`) is one the student writes. `titles(folder)` reads their titles from README.md's
-  headings, `command(module, kind)` says how a student starts one, and `next_line(folder, number)` is the line that
-  ends every exercise's run: the next exercise's command, or after the last, where to read on.
-"""
+"""What every exercise shares: its first line, `start(__file__)`, and how the course finds its exercises
+(`exN_topic.py`; one with a checker `check_exN.py` beside it is one the student writes), their titles and commands."""
 
 import re
 import sys
@@ -22,9 +15,9 @@ READ_FIRST = {6: "read engine.py top to bottom (README.md maps the chapter's cod
 
 
 def start(file: str) -> None:
-    """The first line of an exercise: the signal guard, then the repo importable however it was started."""
+    """The signal guard (in the exercise being run), and the repo importable however the exercise was started."""
     path = Path(file).resolve()
-    if sys._getframe(1).f_globals.get("__name__") == "__main__":  # the exercise being run, not one imported
+    if sys._getframe(1).f_globals.get("__name__") == "__main__":
         install(f"exercises.{path.stem}")
     repo = str(path.parents[1])
     if repo not in sys.path:
@@ -32,15 +25,10 @@ def start(file: str) -> None:
 
 
 def exercises(folder) -> list:
-    """[(number, module name, kind)] for every exN_topic.py in `folder`, by number; kind is "code" for an
-    exercise with a checker check_exN.py beside it, "predict" for a predict-then-run one."""
-    found = []
-    for path in Path(folder).iterdir():
-        match = EXERCISE_FILE.fullmatch(path.name)
-        if match:
-            kind = "code" if (path.parent / f"check_ex{match.group(1)}.py").exists() else "predict"
-            found.append((int(match.group(1)), path.stem, kind))
-    return sorted(found)
+    """[(number, module name, "code" or "predict")] for every exN_topic.py in `folder`, by number."""
+    found = [(match[1], path) for path in Path(folder).iterdir() if (match := EXERCISE_FILE.fullmatch(path.name))]
+    return sorted((int(n), path.stem, "code" if (path.parent / f"check_ex{n}.py").exists() else "predict")
+                  for n, path in found)
 
 
 def titles(folder) -> dict:
@@ -50,7 +38,6 @@ def titles(folder) -> dict:
 
 
 def command(module: str, kind: str) -> str:
-    """How a student starts an exercise: the bare question, or, for code, the file to write and its checker."""
     if kind == "code":
         return f"write exercises/{module}.py, then python -m exercises.check_ex{EXERCISE_FILE.match(module + '.py')[1]}"
     return f"python -m exercises.{module}"

@@ -1,11 +1,9 @@
-"""The journal, `exercises/journal.jsonl`: every prediction and check, one JSON line each, append-only.
+"""The journal, `exercises/journal.jsonl`: every prediction and check, one JSON line each, append-only, under a
+flock, synced. Every reader sees a line through `valid`, the one schema (a line that fails is unreadable). The header
+carries VERSION and a random checkout id; each line a `chain` hash of the one before and its own fields: an edit
+breaks it, a copy shares it. COURSE_JOURNAL=off records nothing; COURSE_JOURNAL=PATH moves it."""
 
-`append(make)` adds make(Journal)'s record under a flock, synced before the exercise goes on; `load()` reads this
-checkout's, `read(data)` a submission's, each line through `valid`, the one schema (a line that fails is counted
-unreadable). The header carries VERSION and a random checkout id; each line a `chain` hash of the one before and
-its own fields: an edit breaks it, a copy shares it (for learning, not proctoring). Never opened through a link,
-nor as another user's file in a sticky folder. COURSE_JOURNAL=off records nothing; COURSE_JOURNAL=PATH moves it."""
-
+import contextlib
 import datetime
 import errno
 import hashlib
@@ -38,8 +36,7 @@ FIELDS = {"journal": {"version": int, "note": str, "checkout": str}, "asked": {"
 
 
 def valid(record) -> bool:
-    """The schema every reader applies to a line: a kind the exercises write, exactly its fields (with `chain`, and
-    `t` but on the header), each of its type; texts valid Unicode and short, few items."""
+    """The schema: a kind the exercises write, exactly its fields (with `chain`, and `t` but on the header), typed."""
     fields = FIELDS.get(record.get("kind")) if isinstance(record, dict) else None
     fields = fields and {"kind": str, "chain": str, **({} if record["kind"] == "journal" else {"t": str}), **fields}
     return bool(fields) and set(fields) - {"version"} <= set(record) <= set(fields) and all(  # no version: older
@@ -75,7 +72,7 @@ class Journal:
         return mine if everything or not resets else mine[resets[-1] + 1:]
 
     def notes(self) -> list:
-        """What is wrong with it, each in the words the board, the hand-in and the grader all use."""
+        """What is wrong with it, in the words the board, the hand-in and the grader all use."""
         header = self.records[0] if self.records and self.records[0]["kind"] == "journal" else {"version": VERSION}
         version = header.get("version", "from before versions")
         return [n for n in [self.trouble, self.unreadable and f"{self.unreadable} unreadable line(s) (cut off by a"
@@ -125,85 +122,66 @@ def when(stamp) -> str:  # 'Tue 25 Nov 10:02'
         return "at a time that does not read"
 
 
-def planted(path: Path) -> str | None:
-    """Why `path` must not be used: another user's file in a sticky folder everyone may write to (/tmp), which the
-    kernel's protected_regular refuses, root included. None if it may be."""
-    try:
-        here, there = os.stat(path.parent), os.lstat(path)
-    except OSError:
-        return None
-    if here.st_mode & stat.S_ISVTX and here.st_mode & stat.S_IWOTH and there.st_uid not in (os.geteuid(), here.st_uid):
-        return f"{shown(path)} belongs to another user in a sticky folder (like /tmp): it is not used"
-    return None
-
-
-def _open(path: Path, flags: int) -> int:
-    if planted(path):
+@contextlib.contextmanager
+def _opened(path: Path, flags: int):
+    """(fd, contents) of the journal, flocked (shared to read): never through a link, nor another user's file in a
+    sticky folder, nor a file that is not regular (a FIFO, a device, a folder) or is over MAX_BYTES."""
+    if outputs.planted(path):
         raise OSError(errno.EPERM, "another user's file in a sticky folder (like /tmp), never used")
-    return os.open(path, flags | os.O_NONBLOCK | NOFOLLOW, 0o644)
+    fd = os.open(path, flags | os.O_NONBLOCK | NOFOLLOW, 0o644)
+    try:
+        fcntl and fcntl.flock(fd, fcntl.LOCK_SH if flags == os.O_RDONLY else fcntl.LOCK_EX)  # released by close
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise OSError(errno.EINVAL, "it is not a regular file")
+        if info.st_size > MAX_BYTES:
+            raise OSError(errno.EFBIG, f"it is over {MAX_BYTES // 1_000_000} MB, more than a journal ever holds")
+        yield fd, os.pread(fd, MAX_BYTES + 1, 0)
+    finally:
+        os.close(fd)
 
 
 def load() -> Journal:
-    """This checkout's journal as it is now (empty if there is none or recording is off)."""
     path = where()
     if path is None or not os.path.lexists(path):
         return Journal()
     try:
-        fd = _open(path, os.O_RDONLY)
-        try:
-            fcntl and fcntl.flock(fd, fcntl.LOCK_SH)  # never half a writer's line
-            return read(_contents(fd))
-        finally:
-            os.close(fd)
+        with _opened(path, os.O_RDONLY) as (_, data):
+            return read(data)
     except OSError as error:
         return Journal(trouble=f"{shown(path)} cannot be read: {_why(error)}")
 
 
 def append(make, kept: str | None = None) -> dict | None:
-    """Add the record make(journal) returns (None: nothing to add), with its time and chain, and the header first
-    if the journal is new. On disk (synced) when this returns it; None if recording is off or failed (one line on
-    stderr says so). `kept` joins what a Ctrl-C's line says was kept (outputs.KEPT), in the same instant."""
-    path, fd = where(), None
+    """Add make(journal)'s record (None: nothing) with its time and chain, after the header if the journal is new.
+    Synced when this returns it; None if recording is off or failed (said on stderr). `kept` joins what a signal's
+    line says was kept (outputs.KEPT) in the same instant."""
+    path = where()
     if path is None:
         return None
     try:
-        fd = _open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT)
-        fcntl and fcntl.flock(fd, fcntl.LOCK_EX)  # writers take turns; released when fd closes
-        data = _contents(fd)
-        book = read(data)
-        record = make(book)
-        if record is None:
-            return None
-        record = {**record, "t": datetime.datetime.now().astimezone().isoformat(timespec="seconds")}
-        header = [] if book.records else [{"kind": "journal", "version": VERSION, "note": NOTE,
-                                           "checkout": secrets.token_hex(16)}]
-        before, lines = book.records[-1]["chain"] if book.records else "", []
-        for item in [*header, record]:
-            item["chain"] = before = chained(before, item)
-            lines.append(json.dumps(item) + "\n")
-        out = (("\n" if data and not data.endswith(b"\n") else "") + "".join(lines)).encode()  # a cut line stays apart
-        with outputs.signals_held():  # Ctrl-C waits for the whole record, then is said
-            while out:  # one write() in practice; the lock keeps any remainder next to it
-                out = out[os.write(fd, out):]
-            os.fsync(fd)
-            outputs.KEPT.extend([kept] if kept else [])
-        return record
+        with _opened(path, os.O_RDWR | os.O_APPEND | os.O_CREAT) as (fd, data):
+            book = read(data)
+            record = make(book)
+            if record is None:
+                return None
+            record = {**record, "t": datetime.datetime.now().astimezone().isoformat(timespec="seconds")}
+            header = [] if book.records else [{"kind": "journal", "version": VERSION, "note": NOTE,
+                                               "checkout": secrets.token_hex(16)}]
+            before, lines = book.records[-1]["chain"] if book.records else "", []
+            for item in [*header, record]:
+                item["chain"] = before = chained(before, item)
+                lines.append(json.dumps(item) + "\n")
+            out = (("\n" if data and not data.endswith(b"\n") else "") + "".join(lines)).encode()  # a cut line apart
+            with outputs.signals_held():  # Ctrl-C waits for the whole record, then is said
+                while out:  # one write() in practice; the lock keeps any remainder next to it
+                    out = out[os.write(fd, out):]
+                os.fsync(fd)
+                outputs.KEPT.extend([kept] if kept else [])
+            return record
     except OSError as error:
         print(f"note: nothing was recorded in the journal ({shown(path)}: {_why(error)})", file=sys.stderr)
         return None
-    finally:
-        if fd is not None:
-            os.close(fd)
-
-
-def _contents(fd: int) -> bytes:
-    """The whole file, if it is a regular file of at most MAX_BYTES: never a FIFO, a device or a folder."""
-    info = os.fstat(fd)
-    if not stat.S_ISREG(info.st_mode):
-        raise OSError(errno.EINVAL, "it is not a regular file")
-    if info.st_size > MAX_BYTES:
-        raise OSError(errno.EFBIG, f"it is over {MAX_BYTES // 1_000_000} MB, more than a journal ever holds")
-    return os.pread(fd, MAX_BYTES + 1, 0)
 
 
 def _why(error: OSError) -> str:
@@ -211,8 +189,7 @@ def _why(error: OSError) -> str:
 
 
 def checked(default: Path, path: Path, parts: dict) -> None:
-    """The checker harness's record of one check (solved or not, which parts, the file's hash, whether it is the
-    exercise's own file), then its run's last line: the board's Next line once solved, else this checker again."""
+    """The checker's record of one check, then its last line: the board's Next line once solved, else itself."""
     number = int(exercise.EXERCISE_FILE.fullmatch(default.name).group(1))
     digest = hashlib.sha256(own_file(Path(path)) or b"").hexdigest()
     append(lambda book: {"kind": "check", "ex": number, "solved": bool(parts) and all(parts.values()),
@@ -223,12 +200,8 @@ def checked(default: Path, path: Path, parts: dict) -> None:
         print(next_line(number) if parts and all(parts.values()) else again)
 
 
-# --- what the board shows of an exercise, and what comes next ---
-
-
 def next_line(number: int | None, book=None, found=None) -> str:
-    """The board's Next line, which every exercise's and the checker's run ends with too: the first exercise not
-    done (with the journal empty or off, the one after `number`)."""
+    """The board's Next line, which every run ends with: the first exercise not done (no journal: after `number`)."""
     book, found = book or load(), found or exercise.exercises(EXERCISES)
     if number is not None and not book.records:  # recording off or failing: the board knows nothing
         return exercise.next_line(EXERCISES, number)
@@ -238,8 +211,7 @@ def next_line(number: int | None, book=None, found=None) -> str:
 
 
 def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
-    """(what the board says of an exercise, whether it is done, its next command). A prediction exercise shows
-    the first prediction the grade counts (made before any reset too); a code exercise its last check."""
+    """(the board's words, done, the next command): the first prediction (the grade's), or the last check."""
     since, command = book.of(number), exercise.command(module, kind)
     if kind == "code":
         checks = [r for r in since if r["kind"] == "check" and r["own"]]  # not a scratch file's
@@ -270,8 +242,7 @@ def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
 
 
 def own_file(path: Path) -> bytes | None:
-    """A file of the checkout, never through a symbolic link; None if it is not a regular file. At most
-    MAX_BYTES + 1 bytes are read: a caller sees a file past MAX_BYTES by its length."""
+    """A regular file's first MAX_BYTES + 1 bytes, never through a link; None if it is not one."""
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | NOFOLLOW)
     except OSError:

@@ -1,23 +1,14 @@
-"""The course's recordings: one colour-blind-safe palette, and one way every recording opens (the whole run, the
-cursor on the last step, side panels closed, every shape and curve framed). A recording, exercise 7's shape:
-
-    from curriculum.common import recording as course
-
-    def fill(stream):                                         # stream: a rerun.RecordingStream
-        look = course.looks(curves)                           # {name: Look(colour, label)}; never a KeyError
-        values = [course.log_series(stream, f"energy/{name}", steps, curves[name], look[name]) for name in curves]
-        return course.opening(course.time_series("energy", "(E - E0) / |E0|", steps[-1], values), steps[-1])
-
-    data = course.recorded("zero2robot-ch3_3-ex7", fill)      # the .rrd bytes; write them with write_atomic
-
-The palette is Okabe and Ito's colour-universal set: the integrators' colours stay more than 20 apart in CAM02-UCS
-from one another and from the background, for normal vision and simulated deuteranopia, protanopia and tritanopia
-(tests/test_palette.py); explicit and semi-implicit Euler are vermillion against sky blue, never red against green.
-Importing this module loads nothing heavy; Rerun loads when a function needs it.
-"""
+"""The course's recordings: one colour-blind-safe palette (Okabe and Ito's, kept apart by tests/test_palette.py) and
+one way every recording opens: the whole run, the cursor on the last step, side panels closed, everything framed.
+`recorded(app_id, fill)` gives the .rrd bytes; fill(stream) logs (log_series, ...) and returns an `opening(...)`.
+Rerun loads only inside the functions that need it."""
 
 import math
 from typing import NamedTuple
+
+import numpy as np
+
+from curriculum.common.outputs import signals_held
 
 PALETTE = {  # Okabe & Ito's colour-universal set (black left out: it is the viewer's background)
     "vermillion": (213, 94, 0), "sky_blue": (86, 180, 233), "yellow": (240, 228, 66), "blue": (0, 114, 178),
@@ -34,8 +25,7 @@ PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this 
 FEW_POINTS = 50  # a plot's line with this many values or fewer also marks each one
 END_ROOM = 0.04  # a plot's time axis runs this much past the last step, so the viewer labels that step too
 REACH = 2.0  # a spatial view frames the runs that stay within this many times the exact motion's size
-DRAW_LIMIT = 1e30  # Rerun stores float32 (up to 3.4e38): we draw coordinates below this, leaving headroom
-# for the camera's distance and the labels' lifts; a diverged run's inf and NaN are never drawn
+DRAW_LIMIT = 1e30  # Rerun stores float32 (to 3.4e38): headroom for the camera and labels; inf and NaN never drawn
 
 
 class Look(NamedTuple):
@@ -44,42 +34,29 @@ class Look(NamedTuple):
 
 
 def looks(names) -> dict:
-    """{name: Look(colour, label)} for these names, in their order. A name the course has no colour for
-    takes the next spare palette colour (round again after the last) and its own name as its label."""
+    """{name: Look(colour, label)}; a name the course has no colour for takes the next spare colour and its name."""
     spare = [colour for colour in SPARE_COLOURS if colour not in (COLOURS.get(name) for name in names)]
     new = [name for name in names if name not in COLOURS]
     return {name: Look(COLOURS[name] if name in COLOURS else spare[new.index(name) % len(spare)],
                        LABELS.get(name, name)) for name in names}
 
 
-# --- what the viewer opens on ---
-
-
 def opening(story, last_step: int, timeline: str = "step"):
-    """The Blueprint every course recording opens with: `story` (a view, a list of views to stack, or an rrb layout)
-    fills the window, side panels closed, the cursor on the last step; play replays the run in PLAYBACK_SECONDS."""
+    """The Blueprint: `story` (a view, views to stack, an rrb layout) fills the window; play takes PLAYBACK_SECONDS."""
     import rerun.blueprint as rrb
 
     if isinstance(story, list | tuple):  # several views: one under the other
         story = rrb.Vertical(*story)
-    return rrb.Blueprint(
-        story,
-        rrb.BlueprintPanel(state="hidden"),
-        rrb.SelectionPanel(state="hidden"),
-        rrb.TimePanel(state="collapsed", timeline=timeline, play_state="following",
-                      fps=max(int(last_step) / PLAYBACK_SECONDS, 1.0)),
-    )
+    return rrb.Blueprint(story, rrb.BlueprintPanel(state="hidden"), rrb.SelectionPanel(state="hidden"),
+                         rrb.TimePanel(state="collapsed", timeline=timeline, play_state="following",
+                                       fps=max(int(last_step) / PLAYBACK_SECONDS, 1.0)))
 
 
 def recorded(application_id: str, fill, recording_id: str | None = None) -> bytes:
-    """The .rrd bytes of a recording built in memory: fill(stream) logs into `stream` and returns the
-    blueprint (from opening()). Nothing touches the disk here: the caller writes the bytes atomically."""
+    """The .rrd bytes of a recording built in memory: fill(stream) logs into `stream` and returns the blueprint."""
     import rerun as rr
 
-    from curriculum.common.outputs import signals_held
-
-    # A Ctrl-C or SIGTERM waits until the bytes are drained (a fraction of a second): a stream dropped with data
-    # in its sink, even between two of these lines, makes Rerun print a WARN line after our one line.
+    # signals wait until the bytes are drained: a stream dropped with data in its sink makes Rerun print a WARN line
     with signals_held():
         stream = rr.RecordingStream(application_id, recording_id=recording_id)
         in_memory = stream.memory_recording()
@@ -92,20 +69,14 @@ def recorded(application_id: str, fill, recording_id: str | None = None) -> byte
 
 
 def on_steps(steps):
-    """The `step` timeline column for send_columns."""
     import rerun as rr
 
     return [rr.TimeColumn("step", sequence=steps)]
 
 
-# --- time series ---
-
-
 def log_series(stream, entity: str, steps, values, look: Look, width: float | None = None):
-    """One line on the `step` timeline in look's colour and legend label, non-finite values left out; a short line
-    (FEW_POINTS or fewer, not a flat two-point reference) marks each value; one with no value sends no column (three
-    empty columns crash Rerun 0.41's viewer). Returns the values logged."""
-    import numpy as np
+    """One line on the `step` timeline, non-finite values left out, a short line's values marked; no column for no value
+    (empty columns crash Rerun 0.41's viewer). Returns the values logged."""
     import rerun as rr
 
     steps, values = np.asarray(steps), np.asarray(values, dtype=float)
@@ -122,18 +93,14 @@ def log_series(stream, entity: str, steps, values, look: Look, width: float | No
 
 
 def layered_widths(names, widest: float = 7.0, thinnest: float = 1.5) -> dict:
-    """{name: line width} that lets lines lying on one another all show: the viewer draws series in name
-    order, so the first drawn is the widest and each later one thinner, down to `thinnest`."""
+    """{name: line width} so that lines on one another all show: the first drawn (in name order) is the widest."""
     order = sorted(names)
     step = (widest - thinnest) / (len(order) - 1) if len(order) > 1 else 0.0
     return {name: widest - i * step if len(order) > 1 else thinnest for i, name in enumerate(order)}
 
 
 def padded(values, margin: float = 0.05):
-    """(low, high) of the values with a margin; (-1.0, 1.0) when none is finite (nothing is drawn: a run too
-    short to move logs the log10 of exact zeros), so a caller can always unpack it."""
-    import numpy as np
-
+    """(low, high) of the finite values with a margin; (-1.0, 1.0) when none is finite."""
     values = np.concatenate([np.ravel(v) for v in values]) if isinstance(values, list | tuple) else np.ravel(values)
     values = values[np.isfinite(values)]
     if values.size == 0:
@@ -144,8 +111,7 @@ def padded(values, margin: float = 0.05):
 
 
 def time_series(origin: str, name: str, last_step: int, values=None, legend: str = "RightBottom", y_range=None):
-    """A plot of every series under `origin`, opening on steps 0..last_step and END_ROOM past it (so the last round
-    step's label shows), its y range fitted to `values` or given as y_range; hovering shows every curve."""
+    """A plot of every series under `origin` on steps 0..last_step, its y range fitted to `values` or y_range."""
     import rerun as rr
     import rerun.blueprint as rrb
 
@@ -157,21 +123,12 @@ def time_series(origin: str, name: str, last_step: int, values=None, legend: str
                               interaction=rrb.PlotInteraction(tooltip_mode="All"))
 
 
-# --- flat plots and paths, seen from above ---
-
-
 def drawable(points):
-    """Rows whose every coordinate Rerun can draw (a diverged run's inf and NaN are left out)."""
-    import numpy as np
-
     return (np.abs(points) < DRAW_LIMIT).all(axis=-1)
 
 
 def extent(paths):
-    """The corners (low, high) of the box around every drawable point of the paths ((..., 3) arrays);
-    a unit box if there are none."""
-    import numpy as np
-
+    """The corners (low, high) of the box around the paths' drawable points; a unit box if there are none."""
     points = np.concatenate([np.reshape(p, (-1, 3))[drawable(np.reshape(p, (-1, 3)))] for p in paths])
     if len(points) == 0:
         return np.full(3, -1.0), np.full(3, 1.0)
@@ -179,10 +136,7 @@ def extent(paths):
 
 
 def near(reference, paths, reach: float = REACH) -> list:
-    """The paths ((..., 3) arrays) to frame with `reference`: each drawable and, in x and y, within `reach` times the
-    reference's half-width of its centre. A path that goes further is seen leaving."""
-    import numpy as np
-
+    """The paths to frame with `reference`: drawable and within `reach` times its half-width of its centre (x, y)."""
     low, high = extent(reference)
     centre, half = (low + high)[:2] / 2.0, float(max(high[0] - low[0], high[1] - low[1])) / 2.0
     kept = []
@@ -194,8 +148,7 @@ def near(reference, paths, reach: float = REACH) -> list:
 
 
 def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | None = 0.5, margin: float = 1.2):
-    """A 3D view of `origin` looking down on z = 0, framing every drawable point of `paths`, +y up the screen as on
-    paper (Rerun's 2D views point y down); a small tilt shows it is 3D, margin > 1 leaves room for the axis names."""
+    """A 3D view looking down on z = 0 at `paths`, +y up the screen (Rerun's 2D views point y down)."""
     import rerun.blueprint as rrb
 
     low, high = extent(paths)
@@ -209,15 +162,12 @@ def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | N
 
 
 def log_key(stream, entity: str, looks: dict, paths):
-    """A spatial view's key, fixed in the plane just right of every drawable point of `paths`: one dot per name in its
-    colour, its label under it (a note after ': ' on a line of its own). Returns the key's points, for from_above()."""
-    import numpy as np
+    """A spatial view's key right of `paths`, a dot and a label per name. Returns its points, for from_above()."""
     import rerun as rr
 
     low, high = extent(paths)
     span = float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
-    # rows share the paths' height, but never closer than a tenth of the view: a flat frame (a phase plane
-    # whose velocity barely moves) would pile the labels on one another
+    # rows share the paths' height, never closer than a tenth of the view (a flat phase plane piles labels up)
     gap = max(min(0.2 * span, float(high[1] - low[1] or span) / max(len(looks), 1)), 0.1 * span)
     names = list(looks)
     positions = np.array([[float(high[0]) + 0.15 * span, float(high[1]) - i * gap, 0.0] for i in range(len(names))])
@@ -229,8 +179,8 @@ def log_key(stream, entity: str, looks: dict, paths):
 
 
 def log_axes(stream, entity: str, low, high, names: tuple[str, str], scales=(1.0, 1.0)) -> None:
-    """Two axes through the origin spanning low..high (x, y), named past their tips, ticked at round numbers as far
-    apart on both (a short axis's labels never crowd); an axis drawn `scales[i]` times its size labels true units."""
+    """Two axes through the origin, named past their tips, ticked at round numbers as far apart on both, in true
+    units (`scales`)."""
     import rerun as rr
 
     grey = [GREY]

@@ -1,5 +1,4 @@
-"""What a chapter's run reports: metrics.json (the same run gives the same bytes), its table's cells, where its
-files went."""
+"""What a chapter's run reports: metrics.json (same run, same bytes), its table's cells, where its files went."""
 
 import json
 import math
@@ -8,8 +7,7 @@ from curriculum.common.outputs import content_id, write_run
 
 
 def rounded(value):
-    """Every float in `value` (through dicts and lists) to 12 decimals, the chapter's format (RK4's ~5e-11 drift keeps
-    two digits; the printed table keeps five significant digits of every drift)."""
+    """Every float in `value` (through dicts and lists) to 12 decimals (RK4's ~5e-11 drift keeps two digits)."""
     if isinstance(value, dict):
         return {key: rounded(item) for key, item in value.items()}
     if isinstance(value, list):
@@ -22,7 +20,6 @@ def rounded(value):
 
 
 def metrics_text(metrics: dict) -> str:
-    """Strict JSON (no NaN or Infinity), keys sorted, so the same run gives the same bytes."""
     return json.dumps(metrics, indent=2, sort_keys=True, allow_nan=False) + "\n"
 
 
@@ -39,9 +36,8 @@ def sim_time(seconds: float) -> str:
 
 
 def write_outputs(out, metrics: dict, metrics_file: str, recording=None) -> str | None:
-    """Write a run's metrics.json, and its recording if asked for (None, or (file name, record) where record(run_id)
-    returns (the .rrd's bytes, a note or None)), together. "run_id" is the content_id of metrics.json written
-    without it, and the recording's id too. Returns the recording's note."""
+    """Write metrics.json (its run_id the content_id of itself without it) and, with `recording` = (name, record),
+    record(run_id)'s bytes together. Returns record's note."""
     metrics["run_id"] = content_id(metrics_text(metrics))
     files, note = {}, None
     if recording:
