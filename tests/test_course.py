@@ -25,7 +25,7 @@ import pytest
 from conftest import REPO
 from curriculum.common import journal
 from curriculum.common.cli import OneLineParser
-from curriculum.common.exercise import EXERCISES, READ_FIRST, READ_ON, command, exercises, next_line, titles
+from curriculum.common.exercise import EXERCISES, READ_FIRST, READ_ON, announce, command, exercises, next_line, titles
 from curriculum.common.predict import OneOf, ask, verdict
 from curriculum.grading import score
 
@@ -231,7 +231,7 @@ def test_the_board_counts_to_seven_with_the_next_command_at_each_step(tmp_path, 
     first = run("exercises", journal_path=path)
     assert first.returncode == 0 and first.stderr == "" and not path.exists()
     assert first.stdout.startswith(f"0 of {len(FOUND)} exercises done.")
-    assert first.stdout.splitlines()[-1] == f"Next: python -m exercises.{FOUND[0][1]}"
+    assert first.stdout.splitlines()[-1] == announce(EXERCISES, *FOUND[0])
     monkeypatch.setenv("COURSE_JOURNAL", str(path))
     for at, (_, module, kind) in enumerate(FOUND):
         if kind == "code":
@@ -242,7 +242,7 @@ def test_the_board_counts_to_seven_with_the_next_command_at_each_step(tmp_path, 
         assert board[0] == f"{at + 1} of {len(FOUND)} exercises done."
         assert f"  {'predicted' if kind == 'predict' else 'solved'} " in board[1 + at], board[1 + at]
         later = FOUND[at + 1:]
-        assert board[-1] == (f"Next: {command(later[0][1], later[0][2])}" if later else f"Next: read {READ_ON}.")
+        assert board[-1] == (announce(EXERCISES, *later[0]) if later else f"Next: read {READ_ON}.")
     loaded = subprocess.run([sys.executable, "-c", "import runpy, sys\ntry:\n runpy.run_module('exercises',"
                              " run_name='__main__')\nexcept SystemExit: pass\nprint([m for m in sys.modules if"
                              " m.split('.')[0] in ('numpy', 'engine', 'rerun') or 'grading' in m])"], cwd=REPO,
@@ -280,7 +280,7 @@ def test_the_checker_records_each_check_and_ends_with_its_next_line(tmp_path):
     assert result.returncode == 1 and result.stdout.splitlines()[-1] == f"Next: python -m exercises.check_ex2 {planted}"
     solved = run("exercises.check_ex2", str(REPO / "exercises" / "solutions" / "ex2_integrators.py"), journal_path=path)
     board = run("exercises", journal_path=path).stdout.splitlines()[-1]
-    assert solved.returncode == 0 and solved.stdout.splitlines()[-1] == board == f"Next: {command(*FOUND[0][1:])}"
+    assert solved.returncode == 0 and solved.stdout.splitlines()[-1] == board == announce(EXERCISES, *FOUND[0])
     check, _ = [r for r in lines(path) if r["kind"] == "check"]
     assert check["parts"] == {"semi_implicit_step": True, "rk4_step": False} and not check["solved"]
     assert len(check["sha256"]) == 64 and "def " not in path.read_text()

@@ -48,5 +48,9 @@ def next_line(folder, number: int) -> str:
     later = [(n, module, kind) for n, module, kind in exercises(folder) if n > number]
     if not later:
         return f"Next: that was the last one. python -m exercises shows what is left; then read {READ_ON}."
-    n, module, kind = later[0]
+    return announce(folder, *later[0])
+
+
+def announce(folder, n: int, module: str, kind: str) -> str:
+    """The Next line that sends a student to exercise `n`, the same from a run and from the board."""
     return f'Next: {READ_FIRST.get(n, "")}exercise {n}, "{titles(folder).get(n, module)}": {command(module, kind)}'

@@ -205,9 +205,8 @@ def next_line(number: int | None, book=None, found=None) -> str:
     book, found = book or load(), found or exercise.exercises(EXERCISES)
     if number is not None and not book.records:  # recording off or failing: the board knows nothing
         return exercise.next_line(EXERCISES, number)
-    waiting = [command for n, module, kind in found for _, done, command in [status(book, n, module, kind)]
-               if not done]
-    return f"Next: {waiting[0]}" if waiting else f"Next: read {exercise.READ_ON}."
+    waiting = [(n, module, kind) for n, module, kind in found if not status(book, n, module, kind)[1]]
+    return exercise.announce(EXERCISES, *waiting[0]) if waiting else f"Next: read {exercise.READ_ON}."
 
 
 def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
