@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from curriculum.common import interrupts
-from curriculum.common.cli import shown
+from curriculum.common.cli import OneLineParser, shown
 from curriculum.common.outputs import one_line_failures
 
 REPO = Path(__file__).resolve().parents[2]
@@ -250,11 +250,10 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
         else:
             run.imported = {"stopped": why}
         return None
-    missing = [i for i in pending if i not in run.results]
-    if missing:  # stopped in a task (time limit, os._exit, a crash): that task is the one to blame
-        stuck = stage if stage in missing else missing[0]
-        run.stopped[stuck] = why
-        return stuck
+    missing = [i for i in pending if i not in run.results]  # the tasks run in order: the first missing one is
+    if missing:  # where it stopped (time limit, os._exit, a crash), the one to blame
+        run.stopped[missing[0]] = why
+        return missing[0]
     return None
 
 
@@ -330,8 +329,10 @@ def print_notes(run: Run) -> None:
         more = f" and called print() {run.prints:,} times more" if run.prints else ""
         print(f"Your code printed {run.printed_bytes:,} bytes{more} while it was checked; the start:")
         print("\n".join(f"  | {shown(line, 200)}" for line in lines) + "\n")
-    if run.clashes:
-        print(textwrap.fill(clash_sentence(run.clashes), width=100) + "\n")
+    clashes = [f"{shown(file)} beside your file has the name of {module}, which Python imports first; `import"
+               f" {shown(Path(file).stem)}` gets that one, never yours. Rename yours." for file, module in run.clashes]
+    if clashes:
+        print(textwrap.fill(" ".join(clashes), width=100) + "\n")
 
 
 def error_sentence(error: dict) -> str:
@@ -341,11 +342,6 @@ def error_sentence(error: dict) -> str:
         return f"raised {what} (inside Python or numpy, called from your code)"
     return (f"raised {what} in {shown(error['function'])}(), line {error['line']} of {shown(error['file'], 60)}:"
             f" {shown(error['code'], 200)}")
-
-
-def clash_sentence(clashes: list) -> str:
-    return " ".join(f"{shown(file)} beside your file has the name of {module}, which Python imports first; `import"
-                    f" {shown(Path(file).stem)}` gets that one, never yours. Rename yours." for file, module in clashes)
 
 
 # --- the command of a chapter's checker ---
@@ -358,7 +354,6 @@ def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int
 
 
 def _main(prog: str, doc: str, default: Path, what: str, check, argv) -> int:
-    from curriculum.common.cli import OneLineParser
     from curriculum.common.journal import checked
     from curriculum.common.predict import explain
 
@@ -447,11 +442,9 @@ def _child() -> None:
         spec.loader.exec_module(module)
     except BaseException as error:  # noqa: BLE001 (SystemExit too: reported, not obeyed)
         send({"import": {"error": _described(error, student, course)}})
-        module = None
-    if module is not None:
+    else:
         send({"stage": "tasks"})
         for index, task in job["tasks"].items():
-            send({"stage": int(index)})
             try:
                 result = collector.collect(module, task)
             except BaseException as error:  # noqa: BLE001
