@@ -98,17 +98,13 @@ def as_typed(text: str, most: int = 40) -> str:
     return shown(text if len(text) <= most else f"{text[:most - 10]}... ({len(text):,} characters)", None)
 
 
-def rerun_switched_off() -> str | None:
-    """'RERUN=off' if Rerun's own environment switch (0, false, off, no; any case) turns its logging off."""
-    value = os.environ.get("RERUN")
-    return f"RERUN={value}" if value is not None and value.strip().lower() in ("0", "false", "off", "no") else None
-
-
 def recording_wanted(prog: str, asked: bool) -> bool:
-    """Whether to make the recording a run asked for: not under RERUN=off, which is said in one line on stderr."""
-    switched_off = rerun_switched_off()
+    """Whether to make the recording a run asked for: not under Rerun's own switch RERUN=off (0, false, off, no; any
+    case), which is said in one line on stderr."""
+    switched_off = os.environ.get("RERUN", "").strip().lower() in ("0", "false", "off", "no")
     if asked and switched_off:
-        print(f"{prog}: note: {switched_off} is set, so no recording is made (as with --no-rerun)", file=sys.stderr)
+        print(f"{prog}: note: RERUN={os.environ['RERUN']} is set, so no recording is made (as with --no-rerun)",
+              file=sys.stderr)
     return asked and not switched_off
 
 

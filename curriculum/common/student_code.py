@@ -3,19 +3,18 @@
     problem = source_problem(path)  # (exit code, sentence) if it cannot be checked; runs none of it
     run = collect(path, "exercises.support.ex2_cases", tasks, prog="python -m exercises.check_ex2")
 
-The file runs in a child Python in a session of its own (-s -P, PYTHONHASHSEED=0: one verdict per file), its
+The file runs in a child Python in a session of its own (-s -P -B, PYTHONHASHSEED=0: one verdict per file), its
 folder on sys.path after the standard library; the child hands each task to collector.collect(module, task) and
-sends the answers as JSON lines on a pipe. Its prints go to a sink that keeps the first few kB and only counts the
-rest. However the checker ends (a signal is the guard's one line, SIGKILL too), a sentinel the child forks sees
-the checker's end of a pipe close, kills the child's process group and removes its scratch folder. A task that
-never ends costs its group; the others run again in a new child.
+sends the answers as JSON lines on a pipe; its prints go to a sink that keeps the first 4 kB and counts the rest.
+However the checker ends (SIGKILL too), a sentinel the child forks sees the checker's end of that pipe close,
+kills the child's session and removes its scratch folder. A task that never ends costs its group; the others run
+again in a new child.
 """
 
 import argparse
 import ast
 import builtins
 import contextlib
-import importlib
 import importlib.util
 import io
 import json
@@ -29,14 +28,13 @@ import sys
 import tempfile
 import textwrap
 import time
-import tokenize
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from curriculum.common import interrupts
-from curriculum.common.cli import shown
-from curriculum.common.outputs import OutputError, one_line_failures
+from curriculum.common.cli import OneLineParser, shown
+from curriculum.common.outputs import one_line_failures
 
 REPO = Path(__file__).resolve().parents[2]
 MAX_SOURCE_BYTES = 1_000_000  # a file of a few functions is a few kB; past this it is not the student's file
@@ -60,9 +58,9 @@ def source_problem(path: Path) -> tuple[int, str] | None:
             return 2, f"{where} is a folder; give the .py file itself"
         if not stat.S_ISREG(info.st_mode):  # a FIFO or a device: reading it could block forever
             return 2, f"{where} is not a regular file (it is a pipe or a device); give the .py file itself"
+        if path.suffix.lower() == ".py" != path.suffix:
+            return 2, f"{name} ends in {shown(path.suffix)}: Python imports only files ending in .py: rename it"
         if path.suffix != ".py":
-            if path.suffix.lower() == ".py":
-                return 2, f"{name} ends in {shown(path.suffix)}: Python imports only files ending in .py: rename it"
             return 2, f"{name} is not a Python file: the checker imports it, so it must end in .py"
         if info.st_size > MAX_SOURCE_BYTES:
             return 2, f"{where} is {info.st_size / 1e6:,.0f} MB; a file of a few functions is a few kB. Is it the" \
@@ -77,12 +75,7 @@ def source_problem(path: Path) -> tuple[int, str] | None:
         return 1, (f"{where}, line {line}: the file contains a null byte (\\0), which Python source cannot hold;"
                    " it was probably saved by a word processor. Save it as plain text.")
     try:
-        try:
-            encoding = tokenize.detect_encoding(iter(data.splitlines(keepends=True)).__next__)[0]
-        except SyntaxError as error:  # not UTF-8 in the first two lines, or a bad `coding:` comment
-            data.decode("utf-8")  # raises UnicodeDecodeError with the position if that is the problem
-            return 1, f"{where}: {shown(error.msg, None)}"
-        source = data.decode(encoding)
+        source = data.decode("utf-8-sig")  # what editors save; a `coding:` comment for another is not honoured
     except UnicodeDecodeError as error:
         line = data[: error.start].count(b"\n") + 1
         return 1, f"{where}, line {line}: this line is not valid text (byte {data[error.start]:#04x}); save the file" \
@@ -183,62 +176,44 @@ def collect(path: Path, collector: str, tasks: list, prog: str, time_limit: floa
 
 def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
     """One child for the `pending` tasks. Returns the index of a task it stopped in (time limit or exit), or None."""
-    try:
-        scratch = tempfile.mkdtemp(prefix="student-code-")
+    with tempfile.TemporaryDirectory(prefix="student-code-", ignore_cleanup_errors=True) as scratch:
         job = Path(scratch, "job.json")
         job.write_text(json.dumps({"file": str(path.resolve()), "collector": collector,
                                    "tasks": {i: tasks[i] for i in pending}}))
-    except OSError as error:
-        raise OutputError(f"the checker cannot make its scratch folder in {shown(tempfile.gettempdir(), 100)}"
-                          f" ({error.strerror}); free some space there, or set TMPDIR to another folder", 2) from None
-    answers_read, answers_write = os.pipe()
-    watch_read, watch = os.pipe()  # its closing (our end, or our death by any signal) ends the child's group
-    env = {**{k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}, "PYTHONHASHSEED": "0",
-           "TMPDIR": scratch}  # -s -P: no user site, nothing from the working folder; the environment's PYTHON* gone
-    try:
-        child = subprocess.Popen(
-            [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job), str(watch_read)],
-            cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            pass_fds=(answers_write, watch_read), start_new_session=True)
-    except OSError:
-        shutil.rmtree(scratch, ignore_errors=True)
-        os.close(watch)
-        raise
-    finally:
-        os.close(answers_write)
-        os.close(watch_read)
-    answers, deadline, phase, ended = bytearray(), time.monotonic() + time_limit, 0, False
-    try:
-        while not ended and time.monotonic() < deadline and len(answers) <= MAX_ANSWER_BYTES:
-            if select.select([answers_read], [], [], 0.01)[0]:
-                answers += os.read(answers_read, 1 << 20)
-            if phase < len(PHASES) and PHASES[phase] in answers:  # the import, then the tasks: time afresh
-                phase, deadline = phase + 1, time.monotonic() + time_limit
-            ended = answers.endswith(DONE) or child.poll() is not None  # (its threads may outlive DONE)
-        code = child.poll()
-    finally:
-        _end(child, scratch, watch)
-        os.set_blocking(answers_read, False)  # what is left, unless a process that escaped the group holds it
-        with contextlib.suppress(OSError):
-            while len(answers) <= MAX_ANSWER_BYTES and (chunk := os.read(answers_read, 1 << 20)):
+        env = {**{k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}, "PYTHONHASHSEED": "0",
+               "TMPDIR": scratch}  # -s -P -B: no user site, nothing from the working folder, no .pyc written
+        fd, answers_write = os.pipe()
+        with open(fd, "rb", buffering=0) as pipe:  # its closing (here, or by any signal) ends the child's group
+            try:
+                child = subprocess.Popen(
+                    [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job)],
+                    cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL, pass_fds=(answers_write,), start_new_session=True)
+            finally:
+                os.close(answers_write)
+            answers, deadline, phase, ended = bytearray(), time.monotonic() + time_limit, 0, False
+            try:
+                while not ended and time.monotonic() < deadline and len(answers) <= MAX_ANSWER_BYTES:
+                    if select.select([pipe], [], [], 0.01)[0]:
+                        answers += pipe.read(1 << 20)
+                    if phase < len(PHASES) and PHASES[phase] in answers:  # the import, then the tasks: time afresh
+                        phase, deadline = phase + 1, time.monotonic() + time_limit
+                    ended = answers.endswith(DONE) or child.poll() is not None  # (its threads may outlive DONE)
+                code = child.poll()
+            finally:
+                with contextlib.suppress(OSError):  # its session: all it started, unless a process left it
+                    os.killpg(child.pid, signal.SIGKILL)
+                child.wait()
+                for _ in range(200):  # the group's processes are gone in a moment: SIGKILL cannot be caught
+                    try:
+                        os.killpg(child.pid, 0)
+                    except ProcessLookupError:
+                        break
+                    time.sleep(0.005)
+            os.set_blocking(fd, False)  # what is left, unless a process that escaped the group holds the pipe
+            while len(answers) <= MAX_ANSWER_BYTES and (chunk := pipe.read(1 << 20)):
                 answers += chunk
-        os.close(answers_read)
     return _read_answers(bytes(answers[:MAX_ANSWER_BYTES + 1]), run, pending, ended, code)
-
-
-def _end(child, scratch: str, watch: int) -> None:
-    """Kill the child's process group (all it started, unless it left the group) and remove its scratch folder."""
-    os.close(watch)
-    with contextlib.suppress(OSError):
-        os.killpg(child.pid, signal.SIGKILL)
-    child.wait()
-    for _ in range(200):  # the group's processes are gone in a moment: SIGKILL cannot be caught
-        try:
-            os.killpg(child.pid, 0)
-        except OSError:
-            break
-        time.sleep(0.005)
-    shutil.rmtree(scratch, ignore_errors=True)
 
 
 def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: int | None) -> int | None:
@@ -275,11 +250,10 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
         else:
             run.imported = {"stopped": why}
         return None
-    missing = [i for i in pending if i not in run.results]
-    if missing:  # stopped in a task (time limit, os._exit, a crash): that task is the one to blame
-        stuck = stage if stage in missing else missing[0]
-        run.stopped[stuck] = why
-        return stuck
+    missing = [i for i in pending if i not in run.results]  # the tasks run in order: the first missing one is
+    if missing:  # where it stopped (time limit, os._exit, a crash), the one to blame
+        run.stopped[missing[0]] = why
+        return missing[0]
     return None
 
 
@@ -355,8 +329,10 @@ def print_notes(run: Run) -> None:
         more = f" and called print() {run.prints:,} times more" if run.prints else ""
         print(f"Your code printed {run.printed_bytes:,} bytes{more} while it was checked; the start:")
         print("\n".join(f"  | {shown(line, 200)}" for line in lines) + "\n")
-    if run.clashes:
-        print(textwrap.fill(clash_sentence(run.clashes), width=100) + "\n")
+    clashes = [f"{shown(file)} beside your file has the name of {module}, which Python imports first; `import"
+               f" {shown(Path(file).stem)}` gets that one, never yours. Rename yours." for file, module in run.clashes]
+    if clashes:
+        print(textwrap.fill(" ".join(clashes), width=100) + "\n")
 
 
 def error_sentence(error: dict) -> str:
@@ -366,11 +342,6 @@ def error_sentence(error: dict) -> str:
         return f"raised {what} (inside Python or numpy, called from your code)"
     return (f"raised {what} in {shown(error['function'])}(), line {error['line']} of {shown(error['file'], 60)}:"
             f" {shown(error['code'], 200)}")
-
-
-def clash_sentence(clashes: list) -> str:
-    return " ".join(f"{shown(file)} beside your file has the name of {module}, which Python imports first; `import"
-                    f" {shown(Path(file).stem)}` gets that one, never yours. Rename yours." for file, module in clashes)
 
 
 # --- the command of a chapter's checker ---
@@ -383,7 +354,6 @@ def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int
 
 
 def _main(prog: str, doc: str, default: Path, what: str, check, argv) -> int:
-    from curriculum.common.cli import OneLineParser
     from curriculum.common.journal import checked
     from curriculum.common.predict import explain
 
@@ -409,7 +379,7 @@ def _main(prog: str, doc: str, default: Path, what: str, check, argv) -> int:
     return 0 if solved else 1
 
 
-# --- the child, run as `python -s -P -B -c CHILD FD REPO JOB PARENT` ---
+# --- the child, run as `python -s -P -B -c CHILD FD REPO JOB` ---
 
 
 class _Sink(io.TextIOBase):
@@ -443,16 +413,17 @@ class _Sink(io.TextIOBase):
 
 
 def _child() -> None:
-    answers_fd, _, job_file, watch = sys.argv[1:]  # the answers' pipe first, as before
+    answers_fd, _, job_file = sys.argv[1:]
     group, scratch = os.getpid(), os.getcwd()
-    if os.fork() == 0:  # a sentinel, in a group of its own: when the checker's end of `watch` closes (it is done,
-        os.setpgid(0, 0)  # or any signal ended it, SIGKILL too), it ends our group, all we started, and removes
-        os.chdir("/")  # the scratch folder
-        os.read(int(watch), 1)
+    if os.fork() == 0:  # a sentinel in a group of its own: the answers' pipe reports an error (POLLERR) here once
+        os.setpgid(0, 0)  # the checker's end closes (it is done, or any signal ended it, SIGKILL too); then it ends
+        os.chdir("/")  # our group, all we started, and removes the scratch folder
+        closed = select.poll()
+        closed.register(int(answers_fd), 0)
+        closed.poll()
         os.killpg(group, signal.SIGKILL)
         shutil.rmtree(scratch, ignore_errors=True)
         os._exit(0)
-    os.close(int(watch))
     job, answers = json.loads(Path(job_file).read_text()), os.fdopen(int(answers_fd), "w", buffering=1)
 
     def send(message):
@@ -471,11 +442,9 @@ def _child() -> None:
         spec.loader.exec_module(module)
     except BaseException as error:  # noqa: BLE001 (SystemExit too: reported, not obeyed)
         send({"import": {"error": _described(error, student, course)}})
-        module = None
-    if module is not None:
+    else:
         send({"stage": "tasks"})
         for index, task in job["tasks"].items():
-            send({"stage": int(index)})
             try:
                 result = collector.collect(module, task)
             except BaseException as error:  # noqa: BLE001
