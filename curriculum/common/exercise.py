@@ -13,7 +13,7 @@
   under `python -m exercises.ex1_band`. It loads nothing heavy.
 - `exercises(folder)` lists a chapter's exercises by file name, `exN_topic.py`, in order. An exercise with a
   checker beside it (`check_exN.py`) is one the student writes; the others are predict-then-run. The tests
-  and tools/bench_exercises.py read this list, so a new exercise needs no list edited (see docs/DEVELOPING.md).
+  and `tools/bench.py exercises` read this list, so a new exercise needs no list edited (see docs/DEVELOPING.md).
 - `titles(folder)` reads each exercise's title from the headings of its README.md (`## 3. Halve the timestep`),
   `command(module, kind)` says how a student starts one, and `next_line(folder, number)` is the one line
   that ends every exercise's run: the next exercise's command, or after the last, where to read on.
