@@ -11,11 +11,11 @@ import argparse
 import functools
 import os
 import re
+import resource
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 import timeit
 from pathlib import Path
 
@@ -59,11 +59,12 @@ def targets(roots, rounds):
         times = {key: [] for key in commands}
         for round_ in range(rounds + 1):  # round 0 writes the bytecode and warms the caches: not counted
             for key, command in commands.items():
-                started = time.perf_counter()
+                before = resource.getrusage(resource.RUSAGE_CHILDREN)
                 subprocess.run(command, cwd=ROOT, check=True, capture_output=True, env=env)
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)  # CPU seconds: a load does not stretch them
                 if round_:
-                    times[key].append(time.perf_counter() - started)
-    print(f"{load()}; medians, seconds; against: the chapter's engine, or `import numpy, rerun` for the default run")
+                    times[key].append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    print(f"{load()}; medians, CPU seconds; against: the chapter's engine, or `import numpy, rerun` (the default run)")
     for root in roots:
         print(f"\n{root / 'engine.py'}\n{'run':<36}{'engine.py':>10}{'against':>10}{'ratio':>8}")
         for label, _, _, target in TARGETS:
@@ -92,10 +93,9 @@ def ensemble(members=10_000, steps=2_000, sample=100):
             step = engine.INTEGRATORS[integrator]
             together[system_name, integrator] = ensemble_ns(system_name, integrator, members, steps)
             singles = [engine.build_system(system_name, np.random.default_rng(seed)) for seed in range(sample)]
-            alone = best_seconds(lambda: [engine.simulate_long(step, s, 0.01, steps) for s in singles], 1)  # noqa: B023
-            alone = alone / (sample * steps) * 1e9
+            seconds = best_seconds(lambda: [engine.simulate_long(step, s, 0.01, steps) for s in singles], 1)  # noqa: B023
+            alone, ours = seconds / (sample * steps) * 1e9, together[system_name, integrator]
             target = "  (target >= 100x)" if integrator == "semi_implicit" else ""
-            ours = together[system_name, integrator]
             print(f"{system_name:<9}{integrator:<15}{ours:>10.1f}{alone:>13.0f}{alone / ours:>9.0f}x{target}")
     try:
         from mujoco import rollout
@@ -130,11 +130,11 @@ def recording():
     The runs are simulated first; `import rerun` and numpy.ma (rerun's first point) are paid before any timing."""
     import engine_recording
 
-    started = time.perf_counter()
+    started = timeit.default_timer()
     import numpy.ma  # noqa: F401
     import rerun  # noqa: F401
 
-    print(f"{load()}; import rerun, numpy.ma: {time.perf_counter() - started:.2f} s, paid before any timing")
+    print(f"{load()}; import rerun, numpy.ma: {timeit.default_timer() - started:.2f} s, paid before any timing")
     print(f"{'run':<24}{'record() first':>16}{'best of rest':>14}{'.rrd size':>12}")
     for system_name, steps in [*((name, 2000) for name in engine.SYSTEMS), ("orbit", 200_000)]:
         system = engine.build_system(system_name, np.random.default_rng(0))
