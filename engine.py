@@ -301,13 +301,13 @@ PIECE_VALUES = 2_000_000  # numbers per piece of states simulate_long() holds at
 
 
 def simulate_long(step_fn, system: dict, dt: float, steps: int, every: int = 1, progress=None):
-    """simulate() in pieces of at most PIECE_VALUES numbers and a twentieth of the run, each starting where the
-    last one ended, so a long run or a large batch holds little: the same states, bit for bit, but only those at
-    kept_steps(steps, every), and the energy of every step. progress(done), if given, is called after each piece."""
+    """simulate() in pieces of at most PIECE_VALUES numbers, each starting where the last one ended, so a long run
+    or a large batch holds little: the same states, bit for bit, but only those at kept_steps(steps, every), and
+    the energy of every step. progress(done), if given, is called after each piece, a twentieth of the run at most."""
     kept, q0 = kept_steps(steps, every), np.asarray(system["q0"])
     positions, velocities = np.empty((len(kept), *q0.shape)), np.empty((len(kept), *q0.shape))
     energies = np.empty((steps + 1, *q0.shape[:-1]))
-    piece, start = max(1, min(PIECE_VALUES // q0.size, math.ceil(steps / 20))), system
+    piece, start = max(1, min(PIECE_VALUES // q0.size, math.ceil(steps / 20) if progress else steps)), system
     for first in range(0, steps, piece):
         count = min(piece, steps - first)
         states, speeds, energies[first:first + count + 1] = simulate(step_fn, start, dt, count)

@@ -1,7 +1,7 @@
 """The engine's conservative systems as MuJoCo models, for the parity tests and the maintainers' tools.
 
-A module, not a script: `python tools/mujoco_parity.py` prints the figures it gives; tools put tests/ on
-their import path to use it (tools/bench.py, tools/mujoco_rollout.py).
+A module, not a script: `python tools/figures.py parity` prints the figures it gives; tools put tests/ on
+their import path to use it (tools/figures.py, tools/bench.py).
 
 One body of mass 1 on slide joints, so MuJoCo's qpos/qvel are exactly the engine's q/v
 (no quaternions, a diagonal mass matrix of ones) and no contacts:

@@ -1,7 +1,7 @@
 """The damped spring and the implicit step (issue 12), against independent truth:
 the closed-form solution, the damper's work, the one-step eigenvalues, and MuJoCo 3.10.0's own integrators.
 
-`python tools/mujoco_parity.py` and `python tools/damped_convergence.py` print the figures docs/damping.md quotes;
+`python tools/figures.py parity` and `python tools/figures.py damped` print the figures docs/damping.md quotes;
 `python -m exercises.support.stability_map` prints the stability table.
 """
 

@@ -631,16 +631,15 @@ def test_the_bounded_intervals_are_closed_except_at_w_2():
     assert "every interval is closed" in text and "w² ≤ c ≤ 2 + w²/2" in text
 
 
-@pytest.mark.parametrize("tool, doc", [("closed_form_orders", "docs/DEVELOPING.md"),
-                                       ("damped_convergence", "docs/damping.md"),
-                                       ("mujoco_parity", "docs/DEVELOPING.md docs/damping.md")])
+@pytest.mark.parametrize("tool, doc", [("orders", "docs/DEVELOPING.md"), ("damped", "docs/damping.md"),
+                                       ("parity", "docs/DEVELOPING.md docs/damping.md")])
 def test_the_figures_a_maintainer_prints_by_hand_come_from_tools_and_are_the_docs(tool, doc, tmp_path):
     """What is run by hand sits in tools/ (tests/ holds tests and the modules they import); each figure it
     prints is pasted in the page that quotes it."""
-    if tool.startswith("mujoco"):
+    if tool == "parity":
         pytest.importorskip("mujoco", reason="needs the 'mujoco' extra")
-    result = subprocess.run([sys.executable, str(REPO / "tools" / f"{tool}.py")], cwd=tmp_path, capture_output=True,
-                            text=True, timeout=300)
+    result = subprocess.run([sys.executable, str(REPO / "tools" / "figures.py"), tool], cwd=tmp_path,
+                            capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     pages = "".join((REPO / page).read_text() for page in doc.split())
     figures = [line for line in result.stdout.splitlines() if "orders" in line or "|q_ours" in line]

@@ -115,13 +115,13 @@ def test_import_is_free(tmp_path):
 @pytest.mark.parametrize("system", list(engine.SYSTEMS))
 def test_smoke_metrics_match_the_golden_file_byte_for_byte(system, tmp_path, capsys):
     golden = GOLDEN / f"smoke_{system}.json"
-    assert golden.exists(), (f"{system} has no golden smoke file: write it with `python tools/golden.py` and check"
-                             f" {golden.relative_to(REPO)}'s figures by hand")
+    assert golden.exists(), (f"{system} has no golden smoke file: write it with `python tools/figures.py golden` and"
+                             f" check {golden.relative_to(REPO)}'s figures by hand")
     assert engine.main(["--smoke", "--no-rerun", "--system", system, "--out", str(tmp_path)]) == 0
     assert (tmp_path / "metrics.json").read_bytes() == golden.read_bytes(), (
         f"{system}'s smoke run no longer writes {golden.relative_to(REPO)}: if a system or an integrator changed"
-        " on purpose (or a new one was declared), rewrite the golden files with `python tools/golden.py` and read"
-        " `git diff tests/golden` line by line")
+        " on purpose (or a new one was declared), rewrite the golden files with `python tools/figures.py golden` and"
+        " read `git diff tests/golden` line by line")
 
 
 def test_metrics_schema_and_rounding(tmp_path, capsys):
@@ -157,8 +157,8 @@ def test_physics_avoids_blas_and_libm_pow():
 def test_trajectories_do_not_depend_on_the_simd_level():
     def fingerprint(extra_env):
         env = {**os.environ, **extra_env}
-        script = REPO / "tools" / "fingerprint.py"
-        result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env)
+        script = REPO / "tools" / "figures.py"
+        result = subprocess.run([sys.executable, str(script), "fingerprint"], capture_output=True, text=True, env=env)
         assert result.returncode == 0, result.stderr
         return result.stdout
 

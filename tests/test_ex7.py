@@ -5,7 +5,7 @@ constant force, not for a cubic one), the freefall's closed form for E's drift, 
 E~ band as dt halves, and MuJoCo 3.10.0's own mjINT_EULER. The issue's table is pinned at the digits the
 exercise prints, with tolerances argued from the arithmetic beside each.
 
-`python tools/mujoco_shadow.py` prints the MuJoCo figures that exercises/solutions/ANSWERS.md quotes.
+`python tools/figures.py shadow` prints the MuJoCo figures that exercises/solutions/ANSWERS.md quotes.
 """
 
 import re

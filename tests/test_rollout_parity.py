@@ -10,7 +10,7 @@ pytest.importorskip("mujoco", reason="rollout parity needs the 'mujoco' extra: p
 
 import engine  # noqa: E402
 from conftest import ensemble_of
-from mujoco_rollout import rollout_positions  # noqa: E402
+from figures import rollout_positions  # noqa: E402
 
 SEEDS = np.arange(40)  # 40 distinct members x 2000 steps: every one compared, a few seconds
 STEPS = 2000
