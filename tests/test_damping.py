@@ -19,7 +19,7 @@ import pytest
 import engine
 import engine_damping
 import engine_referee
-from conftest import REPO, run_engine
+from conftest import REPO
 from exercises import ex6_stiff_damping
 from exercises.support import stability_map
 
@@ -105,7 +105,7 @@ def test_position_error_and_energy_audit_converge_at_each_integrators_order():
     assert not [p for p in problems if p], "; ".join(p for p in problems if p)
 
 
-# --- the run: report, metrics.json, refusals ---
+# --- the run: report and metrics.json (refused flags: tests/test_cli.py) ---
 
 
 def test_stiff_and_default_runs_report_who_stayed_bounded(tmp_path, capsys):
@@ -151,17 +151,6 @@ def test_blew_up_at_step_n_is_one_step_named_the_same_everywhere(tmp_path, capsy
         assert column(entities[f"/position_error/{name}"], "SeriesLines:names")[0][0].endswith(
             "energy overflowed at step 886")
     assert metrics["drift"]["rk4"]["energy_overflow_step"] is None and exercise["rk4"][1] is None
-
-
-@pytest.mark.parametrize("args, complaint", [
-    (["--system", "orbit", "--damping", "3"], "only --system damped_spring has a damper"),
-    (["--system", "spring", "--integrator", "implicit"], "implicit needs a system that declares dforce_dv"),
-    (["--system", "damped_spring", "--damping", "-1"], "--damping must be a positive, finite number"),
-])
-def test_misplaced_damping_flags_are_one_line_and_exit_2(args, complaint, tmp_path):
-    result = run_engine(*args, "--no-rerun", "--out", tmp_path / "out")
-    assert result.returncode == 2 and complaint in result.stderr and len(result.stderr.splitlines()) == 1
-    assert not (tmp_path / "out").exists()
 
 
 # --- the stability map ---
@@ -286,29 +275,26 @@ def run_ex6(*args, cwd):
                           env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True)
 
 
-def test_ex6_asks_first_gives_nothing_away_and_grades_the_set_of_bounded_integrators(tmp_path):
+def test_ex6_asks_first_and_gives_nothing_away(tmp_path):
+    """Its graded run (`--predict rk4, implicit --more`) is ANSWERS.md's, which tests/test_docs.py reruns."""
     bare = run_ex6(cwd=tmp_path)
-    assert bare.returncode == 0
     question, answers, blank, how = bare.stdout.splitlines()
-    assert question.endswith("?") and "b = 250" in question and blank == "" and "--predict" in how
+    assert bare.returncode == 0 and question.endswith("?") and "b = 250" in question and blank == ""
+    assert "--predict" in how
     for text in (bare.stdout, run_ex6("--help", cwd=tmp_path).stdout):
         assert not FIGURE.search(text)
         assert "bounded are" not in text and "2.785" not in text and "yes" not in text  # no verdict, no bound
-    result = run_ex6("--predict", "rk4,", "implicit", "--more", cwd=tmp_path)  # `--predict rk4, implicit`, split
-    assert result.returncode == 0, result.stderr
-    assert "Right: the ones that stay bounded are rk4, implicit." in result.stdout
-    assert "d->qH[m->M_rowadr[i] + m->M_rownnz[i] - 1] += m->opt.timestep * damp_deriv;" in result.stdout
     assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("said, parsed", [
-    ("Implicit and RK4", {"rk4", "implicit"}), ("implicit", {"implicit"}), ("none", set()),
-    ("none of them", set()), ("euler semi-implicit rk4", {"euler", "semi_implicit", "rk4"}),
-    ("Semi implicit, RK4", {"semi_implicit", "rk4"}), ("rk4,implicit", {"rk4", "implicit"}),
-    ("RK 4 and implicit Euler", {"rk4", "implicit"}), ("rk-4, semi-implicit Euler", {"semi_implicit", "rk4"}),
-    ("Implicit Euler", {"implicit"}), ("explicit Euler", {"euler"}), ("symplectic Euler", {"semi_implicit"})])
+    ("Implicit and RK4", "rk4 implicit"), ("implicit", "implicit"), ("none", ""), ("none of them", ""),
+    ("euler semi-implicit rk4", "euler semi_implicit rk4"), ("Semi implicit, RK4", "semi_implicit rk4"),
+    ("rk4,implicit", "rk4 implicit"), ("RK 4 and implicit Euler", "rk4 implicit"), ("Implicit Euler", "implicit"),
+    ("rk-4, semi-implicit Euler", "semi_implicit rk4"), ("explicit Euler", "euler"),
+    ("symplectic Euler", "semi_implicit")])
 def test_ex6_reads_predictions_as_typed_names_of_several_words_as_one_name(said, parsed):
-    assert ex6_stiff_damping.SomeOf(ex6_stiff_damping.NAMES).parse(said) == parsed
+    assert ex6_stiff_damping.SomeOf(ex6_stiff_damping.NAMES).parse(said) == set(parsed.split())
 
 
 def test_ex6_refuses_none_with_a_name_and_an_unknown_name_in_one_line(tmp_path):
