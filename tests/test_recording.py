@@ -314,7 +314,8 @@ def test_the_ensemble_recording_holds_member_paths_and_tells_every_curve_apart(t
 
 
 def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
-    """curriculum/common/recording.py as its docstring shows it (exercise 7's shape): a few lines, the opening."""
+    """curriculum/common/recording.py as its docstring shows it (exercise 7's shape): a few lines, the engine's
+    opening (checked on every system above), and NaN left out, not drawn."""
     steps = np.arange(301)
     errors = {"orbit": {"euler": steps * 1e-3, "verlet": np.cos(steps / 10.0)},
               "spring": {"rk4": np.full(301, np.nan), "semi_implicit": -steps * 1e-4}}
@@ -328,18 +329,14 @@ def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
         return course.opening(views, steps[-1])
 
     recording, entities, settings = read_bytes(course.recorded("zero2robot-test", fill), tmp_path)
-    assert recording.application_id == "zero2robot-test"
-    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
     views = views_of(settings)
-    assert set(views) == {("TimeSeries", "orbit"), ("TimeSeries", "spring")}
+    assert recording.application_id == "zero2robot-test" and set(views) == {("TimeSeries", "orbit"),
+                                                                           ("TimeSeries", "spring")}
     assert views[("TimeSeries", "orbit")]["TimeAxis:view_range"] == {"start": 0, "end": 312}, "4% past the end"
     low, high = views[("TimeSeries", "orbit")]["ScalarAxis:range"]
     assert low < -0.99 and high > 0.99, "fitted to every value logged"
     assert column(entities["/orbit/verlet"], "SeriesLines:names")[0] == ["verlet"]
-    drawn = [row for b in entities["/spring/rk4"] if "Scalars:scalars" in b.schema.names
-             for row in b.column("Scalars:scalars").to_pylist()]
-    assert drawn == [], "NaN is left out, not drawn"
+    assert not any("Scalars:scalars" in b.schema.names for b in entities["/spring/rk4"]), "NaN is left out"
     assert len(column(entities["/spring/semi_implicit"], "Scalars:scalars")) == 301
 
 
