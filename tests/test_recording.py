@@ -112,25 +112,6 @@ def test_each_body_travels_its_run_step_by_step_along_its_whole_path(recorded, s
             packed(looks[name].colour)]
 
 
-@pytest.mark.parametrize("system_name", SPATIAL)
-def test_the_key_names_every_integrator_in_its_colour_beside_the_paths_and_in_the_frame(recorded, system_name):
-    """The labels stand in a column right of every path, one row apart: never on a trail (RK4's on the spring's
-    red trails), never piled on one another (the damped spring's four at the origin)."""
-    _, entities, settings, _, runs = recorded[system_name]
-    view, looks = SPATIAL[system_name], course.looks(runs)
-    key = entities[f"/{view}/key"]
-    assert column(key, "Points3D:labels")[0] == [look.label for look in looks.values()]
-    assert column(key, "Points3D:colors")[0] == [packed(look.colour) for look in looks.values()]
-    spots = np.array(column(key, "Points3D:positions")[0])
-    trails = np.concatenate([np.array(column(entities[f"/{view}/{name}/trail"], "LineStrips3D:strips")[0][0])
-                             for name in runs])
-    span = np.ptp(trails[:, :2], axis=0).max()
-    assert (spots[:, 0] > trails[:, 0].max() + 0.1 * span).all(), "right of every path, clear of the trails"
-    assert (np.diff(spots[:, 1]) < -0.05 * span).all(), "one row per name, top to bottom, apart"
-    target, half = frame(views_of(settings)[("3D", view)])
-    assert (np.abs(spots[:, :2] - target[:2]) < half).all(), "the key is inside the framed view"
-
-
 @pytest.mark.parametrize("system_name, series", [("orbit", "position_error"), ("damped_spring", "position_error"),
                                                  ("orbit", "energy_error"), ("spring", "energy_error")])
 def test_each_error_is_the_log_of_its_truth_step_for_step(recorded, system_name, series):
@@ -211,19 +192,29 @@ def test_each_system_opens_on_its_own_views_and_every_plot_on_the_whole_run(reco
 
 
 @pytest.mark.parametrize("system_name", SPATIAL)
-def test_the_camera_looks_down_on_every_path_and_the_key_and_the_exact_motion_lies_under_them(recorded,
-                                                                                              system_name):
-    """Centred on the box around every trail, the key and the axes' names, and high enough to frame it; a spring's
-    phase plane draws its exact motion a hair below the integrators' lines."""
-    _, entities, settings, system, _ = recorded[system_name]
-    origin = SPATIAL[system_name]
-    drawn = [np.array(strip) for path, b in entities.items() if path.endswith("/trail") or path == f"/{origin}/axes"
-             for strip in column(b, "LineStrips3D:strips")[0]]
-    points = np.concatenate([*drawn, np.array(column(entities[f"/{origin}/key"], "Points3D:positions")[0])])
+def test_the_key_stands_beside_the_paths_and_the_camera_frames_them_all(recorded, system_name):
+    """The key names every integrator in its colour, in a column right of every path, one row apart: never on a
+    trail (RK4's on the spring's red trails), never piled up (the damped spring's four at the origin). The camera
+    is centred on the box around every trail, the key and the axes' names, and high enough to frame it; a phase
+    plane draws its exact motion a hair below the integrators' lines."""
+    _, entities, settings, system, runs = recorded[system_name]
+    origin, looks = SPATIAL[system_name], course.looks(runs)
+    key = entities[f"/{origin}/key"]
+    assert column(key, "Points3D:labels")[0] == [look.label for look in looks.values()]
+    assert column(key, "Points3D:colors")[0] == [packed(look.colour) for look in looks.values()]
+    spots = np.array(column(key, "Points3D:positions")[0])
+    trails = np.concatenate([np.array(column(entities[f"/{origin}/{name}/trail"], "LineStrips3D:strips")[0][0])
+                             for name in runs])
+    span = np.ptp(trails[:, :2], axis=0).max()
+    assert (spots[:, 0] > trails[:, 0].max() + 0.1 * span).all(), "right of every path, clear of the trails"
+    assert (np.diff(spots[:, 1]) < -0.05 * span).all(), "one row per name, top to bottom, apart"
+    axes = entities.get(f"/{origin}/axes")  # the phase plane's axes and their names
+    axes = [np.array(strip) for strip in column(axes, "LineStrips3D:strips")[0]] if axes else []
+    points = np.concatenate([trails, *axes, spots])
     target, half = frame(views_of(settings)[("3D", origin)])
     np.testing.assert_allclose(target[:2], (points.min(axis=0)[:2] + points.max(axis=0)[:2]) / 2, atol=1e-6)
-    span = (points.max(axis=0) - points.min(axis=0))[:2].max()
-    assert 2 * half >= span, "high enough above the plane that the widest path fits the view"
+    assert 2 * half >= np.ptp(points[:, :2], axis=0).max(), "high enough that the widest path fits the view"
+    assert (np.abs(spots[:, :2] - target[:2]) < half).all(), "the key is inside the framed view"
     if origin == "phase":
         exact = np.array(column(entities["/phase/exact"], "LineStrips3D:strips")[0][0])
         times = np.arange(STEPS + 1) * DT
