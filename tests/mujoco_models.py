@@ -1,17 +1,10 @@
-"""The engine's systems as MuJoCo models, for the parity tests and the maintainers' tools.
-
-A module, not a script: `python tools/mujoco_parity.py` prints the figures it gives; tools put tests/ on
-their import path to use it (tools/bench.py, tools/mujoco_rollout.py).
-
-One body of mass 1 on slide joints, so MuJoCo's qpos/qvel are exactly the engine's q/v
-(no quaternions, a diagonal mass matrix of ones) and no contacts:
-- spring: one slide joint along x with the spring's stiffness, no gravity;
-- freefall: slide joints along x, y, z under gravity, no other force;
-- orbit, and any system declared later: slide joints along x, y, z, no gravity; the force is
-  the engine's own force law, handed to MuJoCo through the passive-force callback;
-- the damped spring (issue 12): one slide joint with stiffness and damping. MuJoCo integrates joint damping
-  implicitly in all but RK4, and when it meets a blown-up state it warns, writes MUJOCO_LOG.TXT into the working
-  folder and resets: so these runs happen in a temporary folder, and a reset shows as a jump back to qpos0 = 0.
+"""The engine's systems as MuJoCo models, for the parity tests and the maintainers' tools (which put tests/ on
+their import path): one body of mass 1 on slide joints, so qpos/qvel are exactly the engine's q/v, no contacts.
+The spring is one joint along x with its stiffness, the freefall three under gravity; the orbit, and any system
+declared later, three joints pulled by the engine's own force law through the passive-force callback. The damped
+spring (issue 12) is one joint with stiffness and damping: MuJoCo integrates joint damping implicitly in all but
+RK4, and on a blown-up state it warns, writes MUJOCO_LOG.TXT where it runs and resets (a jump back to qpos0 = 0),
+so those runs happen in a temporary folder.
 """
 
 import contextlib

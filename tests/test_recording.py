@@ -92,26 +92,6 @@ def recorded(tmp_path_factory):
     return cases
 
 
-@pytest.mark.parametrize("system_name", SPATIAL)
-def test_each_body_travels_its_run_step_by_step_along_its_whole_path(recorded, system_name):
-    """The orbit's bodies move in space; a spring's in the phase plane (x, v_x), the implicit step's too."""
-    _, entities, _, _, runs = recorded[system_name]
-    view, looks = SPATIAL[system_name], course.looks(runs)
-    for name, (positions, velocities, _) in runs.items():
-        shown = positions if view == "orbit" else np.stack([positions[:, 0], velocities[:, 0], 0 * positions[:, 0]], 1)
-        body = entities[f"/{view}/{name}/body"]
-        assert column(body, "step") == list(range(STEPS + 1)), "one position per step, on the step timeline"
-        travelled = np.concatenate(column(body, "Points3D:positions"))
-        np.testing.assert_array_equal(travelled[:, :2], shown[:, :2].astype(np.float32))
-        lift = travelled[:, 2] - shown[:, 2].astype(np.float32)  # drawn a hair above or below the others
-        assert np.ptp(lift) < 1e-6, "the same lift at every step"
-        assert abs(lift[0]) < 0.01 * np.ptp(shown[:, :2], axis=0).max(), "a hair: under 1% of the path's size"
-        trail = entities[f"/{view}/{name}/trail"]
-        np.testing.assert_array_equal(np.array(column(trail, "LineStrips3D:strips")[0][0]), travelled)
-        assert column(body, "Points3D:colors")[0] == column(trail, "LineStrips3D:colors")[0] == [
-            packed(looks[name].colour)]
-
-
 @pytest.mark.parametrize("system_name, series", [("orbit", "position_error"), ("damped_spring", "position_error"),
                                                  ("orbit", "energy_error"), ("spring", "energy_error")])
 def test_each_error_is_the_log_of_its_truth_step_for_step(recorded, system_name, series):
@@ -192,13 +172,27 @@ def test_each_system_opens_on_its_own_views_and_every_plot_on_the_whole_run(reco
 
 
 @pytest.mark.parametrize("system_name", SPATIAL)
-def test_the_key_stands_beside_the_paths_and_the_camera_frames_them_all(recorded, system_name):
-    """The key names every integrator in its colour, in a column right of every path, one row apart: never on a
-    trail (RK4's on the spring's red trails), never piled up (the damped spring's four at the origin). The camera
-    is centred on the box around every trail, the key and the axes' names, and high enough to frame it; a phase
-    plane draws its exact motion a hair below the integrators' lines."""
+def test_each_body_travels_its_path_beside_its_key_and_the_camera_frames_them_all(recorded, system_name):
+    """Each body moves step by step along its whole run, its trail drawn in its colour. The key names every
+    integrator in its colour, in a column right of every path, one row apart: never on a trail (RK4's on the
+    spring's red trails), never piled up (the damped spring's four at the origin). The camera is centred on the
+    box around every trail, the key and the axes' names, and high enough to frame it; a phase plane draws its
+    exact motion a hair below the integrators' lines."""
     _, entities, settings, system, runs = recorded[system_name]
     origin, looks = SPATIAL[system_name], course.looks(runs)
+    for name, (positions, velocities, _) in runs.items():  # the orbit's bodies in space, a spring's in (x, v_x)
+        plane = np.stack([positions[:, 0], velocities[:, 0], 0 * velocities[:, 0]], axis=1)
+        shown = positions if origin == "orbit" else plane
+        body, trail = entities[f"/{origin}/{name}/body"], entities[f"/{origin}/{name}/trail"]
+        assert column(body, "step") == list(range(STEPS + 1)), "one position per step, on the step timeline"
+        travelled = np.concatenate(column(body, "Points3D:positions"))
+        np.testing.assert_array_equal(travelled[:, :2], shown[:, :2].astype(np.float32))
+        lift = travelled[:, 2] - shown[:, 2].astype(np.float32)  # drawn a hair above or below the others
+        assert np.ptp(lift) < 1e-6, "the same lift at every step"
+        assert abs(lift[0]) < 0.01 * np.ptp(shown[:, :2], axis=0).max(), "a hair: under 1% of the path's size"
+        np.testing.assert_array_equal(np.array(column(trail, "LineStrips3D:strips")[0][0]), travelled)
+        colour = [packed(looks[name].colour)]
+        assert column(body, "Points3D:colors")[0] == column(trail, "LineStrips3D:colors")[0] == colour
     key = entities[f"/{origin}/key"]
     assert column(key, "Points3D:labels")[0] == [look.label for look in looks.values()]
     assert column(key, "Points3D:colors")[0] == [packed(look.colour) for look in looks.values()]
