@@ -1,54 +1,15 @@
-"""Ensembles: every member is bit for bit its own single run, and --ensemble reports and writes what it says."""
+"""Ensembles: --ensemble reports and writes what it says (a member is its single run: tests/test_engine.py)."""
 
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import engine
 import engine_ensembles as ensembles
-from conftest import REPO, ensemble_of
+from conftest import ensemble_of
 
 SEEDS = [0, 1, 2, 7, 123, 40_000]
-
-# Run in a child process so numpy starts with the SIMD level under test; prints one hash of the batches.
-MEMBERS_VS_SINGLES = """
-import functools, hashlib, numpy as np, engine, engine_ensembles as ensembles
-seeds, digest = {seeds}, hashlib.sha256()
-for system_name in engine.SYSTEMS:
-    ensemble = ensembles.build_ensemble(functools.partial(engine.build_system, system_name), seeds)
-    for name, step in engine.integrators_for(ensemble).items():
-        batch = engine.simulate(step, ensemble, 0.01, 400)
-        for i, seed in enumerate(seeds):
-            alone = engine.build_system(system_name, np.random.default_rng(seed))
-            single = engine.simulate(engine.integrators_for(alone)[name], alone, 0.01, 400)
-            for mine, theirs in zip(batch, single):
-                member = mine[:, i]
-                assert member.tobytes() == theirs.tobytes(), (system_name, name, seed)
-        for array in batch:
-            digest.update(array.tobytes())
-print(digest.hexdigest())
-"""
-
-
-@pytest.mark.slow
-def test_every_member_is_its_single_run_bit_for_bit_at_every_simd_level():
-    """Every system x every integrator: positions, velocities and energies of each member equal the member's own
-    single run byte for byte, with numpy's AVX2/AVX-512 loops on and off (the batch takes the vector loops, the
-    single run mostly the scalar ones), and the batches themselves do not change."""
-    def members_vs_singles(extra_env):
-        result = subprocess.run([sys.executable, "-c", MEMBERS_VS_SINGLES.format(seeds=SEEDS)], capture_output=True,
-                                text=True, cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO), **extra_env},
-                                timeout=300)
-        assert result.returncode == 0, result.stderr[-2000:]
-        return result.stdout
-
-    assert members_vs_singles({}) == members_vs_singles(
-        {"NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR X86_V3"})  # as test_engine's determinism test
-
 
 def test_ensemble_drift_is_energy_drift_member_by_member_and_the_members_differ():
     """At dt 0.01 and 1.5 s (every spring member diverges); the orbit's seed changes the physics, the spring's only
