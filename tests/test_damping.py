@@ -1,8 +1,5 @@
-"""The damped spring and the implicit step (issue 12), against independent truth:
-the closed-form solution, the damper's work, the one-step eigenvalues, and MuJoCo 3.10.0's own integrators.
-
-`python tools/mujoco_parity.py` and `python tools/damped_convergence.py` print the figures docs/damping.md quotes;
-`python -m exercises.support.stability_map` prints the stability table.
+"""The damped spring and the implicit step (issue 12), against independent truth: the closed-form solution, the
+damper's work, the one-step eigenvalues (the stability map), MuJoCo 3.10.0's own integrators, and exercise 6.
 """
 
 import json
@@ -74,18 +71,16 @@ def test_implicit_step_solves_for_the_damping_at_the_new_velocity_and_without_it
     assert np.array_equal(implicit[0], engine.simulate(engine.semi_implicit_step, spring, 0.01, 500)[0])
 
 
-def test_simpson_is_exact_on_cubics_with_either_parity():
-    for n in (6, 7):
-        t = np.linspace(0.0, 2.0, n + 1)
-        assert math.isclose(engine_damping.simpson(t * t * t - t, t[1] - t[0]), 4.0 - 2.0, rel_tol=1e-13)
-
-
 def test_position_error_and_energy_audit_converge_at_each_integrators_order():
     """Against the closed form, every integrator offered on the damped spring (a new one too), over dt 0.02 ..
     0.0025: the final position error at 2 s, and (E0 - E(t)) - Simpson's integral of b|v|^2, which shrinks like
     dt^1 for the Eulers and the implicit step and dt^4 for RK4 (the quadrature is order 4, so it does not cap
     RK4's order). The audit is the worst mismatch at t = 1, 2, 3, 4, 5 s: at any single time the first-order
-    error's coefficient can pass through zero (semi-implicit's does near t = 4 s)."""
+    error's coefficient can pass through zero (semi-implicit's does near t = 4 s). Simpson's rule is exact on
+    cubics, with an even or odd number of intervals."""
+    for n in (6, 7):
+        t = np.linspace(0.0, 2.0, n + 1)
+        assert math.isclose(engine_damping.simpson(t * t * t - t, t[1] - t[0]), 4.0 - 2.0, rel_tol=1e-13)
     system = damped()
     errors, worst = {}, {}
     for dt in (0.02, 0.01, 0.005, 0.0025):
@@ -167,13 +162,6 @@ def test_closed_form_bounds_are_the_eigenvalues_of_the_engines_one_step_matrix(n
             assert (radius <= 1.0 + 1e-12) == inside, (w, c, radius, interval)
             checked += 1
     assert checked > 60
-
-
-def test_euler_needs_damping_and_the_implicit_step_needs_no_bound_on_it():
-    euler = stability_map.analytic_interval("euler", 0.5)
-    assert euler[0] == 0.25 and euler[0] > 0  # a lower bound: too little damping and it grows
-    assert stability_map.analytic_interval("implicit", 0.5) == (0.0, math.inf)
-    assert stability_map.analytic_interval("implicit", 4.0) == (6.0, math.inf)  # stiffness still bounds it
 
 
 @pytest.mark.slow
@@ -298,7 +286,11 @@ def test_ex6_reads_predictions_as_typed_names_of_several_words_as_one_name(said,
 
 
 def test_ex6_answer_is_the_stability_map_at_its_damping():
-    """The measured verdicts equal what the one-step eigenvalues say at c = 2.5, w = 0.02."""
+    """The measured verdicts equal what the one-step eigenvalues say at c = 2.5, w = 0.02. Explicit Euler needs
+    damping (a lower bound), the implicit step no bound on it, though stiffness still bounds it."""
+    assert stability_map.analytic_interval("euler", 0.5)[0] == 0.25
+    assert stability_map.analytic_interval("implicit", 0.5) == (0.0, math.inf)
+    assert stability_map.analytic_interval("implicit", 4.0) == (6.0, math.inf)
     measured = {name: bounded for name, (bounded, _, _) in ex6_stiff_damping.measure().items()}
     c, w = ex6_stiff_damping.DT * ex6_stiff_damping.DAMPING, ex6_stiff_damping.DT * 2.0
     analytic = {}

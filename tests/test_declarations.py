@@ -1,11 +1,6 @@
-"""What each system and integrator declares is measured, and the modules import one way.
-
-A system's facts (returns, potential, velocity_free, damped, dforce_dv) and an integrator's passport
-(order, force evaluations per step, needs) decide where a step is offered and what the run and the tests
-do with it, so each is checked against what the code does. The order is measured in test_closed_form.py
-and test_damping.py; everything else here. A test that needs something a system does not have skips it
-and says why.
-"""
+"""What each system and integrator declares is measured (the order in test_closed_form.py and test_damping.py,
+potential in test_engine.py), and the modules import one way. A test that needs something a system does not
+have skips it and says why."""
 
 import ast
 import graphlib
@@ -52,23 +47,15 @@ def test_each_step_asks_for_the_force_as_often_as_its_passport_says(system_name,
 
 
 @pytest.mark.parametrize("system_name", SYSTEMS)
-def test_a_velocity_free_force_ignores_the_velocity_and_the_others_do_not(system_name):
-    system = built(system_name)
+def test_the_forces_velocity_dependence_is_what_the_system_declares(system_name):
+    """velocity_free=True: the force ignores the velocity, and only then; a declared dforce_dv is d force / d v."""
+    system, h = built(system_name), 1e-6
     for q, v in nearby_states(system):
         same = np.array_equal(system["force"](q, v), system["force"](q, v + 0.5))
         assert same == system["velocity_free"], (
             f"{system_name} declares velocity_free={system['velocity_free']}, but its force"
             f" {'does not depend' if same else 'depends'} on the velocity")
-
-
-@pytest.mark.parametrize("system_name", SYSTEMS)
-def test_a_declared_dforce_dv_is_the_forces_derivative(system_name):
-    system = built(system_name)
-    if system.get("dforce_dv") is None:
-        pytest.skip(f"{system_name} declares no dforce_dv")
-    h = 1e-6
-    for q, v in nearby_states(system):
-        for axis in np.eye(3):
+        for axis in np.eye(3) if system.get("dforce_dv") is not None else ():
             derivative = (system["force"](q, v + h * axis) - system["force"](q, v - h * axis)) / (2 * h)
             np.testing.assert_allclose(derivative, system["dforce_dv"] * axis, rtol=0, atol=1e-6, err_msg=(
                 f"{system_name} declares dforce_dv={system['dforce_dv']}, which is not d force / d v: declare the"

@@ -1,7 +1,4 @@
-"""Our integrators against MuJoCo 3.10.0's own: mj_step on every system, mujoco.rollout on ensembles.
-
-Install with `pip install -e ".[test,mujoco]"`; without mujoco these tests skip.
-"""
+"""Our integrators against MuJoCo 3.10.0's own, mj_step and mujoco.rollout (the 'mujoco' extra; else they skip)."""
 
 import subprocess
 import sys

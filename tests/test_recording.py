@@ -1,8 +1,5 @@
-"""The .rrd recording, read back with Rerun's own reader and checked against the run.
-
-What pytest cannot see without a screen (how the views look) tools/screenshots.py shows in the real
-viewer; here we check what the viewer is given: the moving bodies' values, each plot's numbers, and
-the blueprint's views and settings.
+"""The .rrd recording, read back with Rerun's own reader: what the viewer is given (the bodies' values, each plot's
+numbers, the blueprint's views and settings). How it looks without a screen: tools/screenshots.py.
 """
 
 import json
@@ -259,9 +256,9 @@ def test_a_new_system_or_integrator_records_before_anyone_writes_it_a_view_or_a_
             assert set(views_of(settings)) == {("3D", "paths"), ("TimeSeries", "energy_error")}
 
 
-def test_the_ensemble_plots_each_members_worst_error_so_far_over_every_step():
-    """Best, median and worst member of max over steps 0..k of |E - E0| / |E0|, against a plain loop;
-    with every=7 the steps between kept ones count too."""
+def test_the_ensemble_recording_holds_member_paths_and_tells_every_curve_apart(tmp_path):
+    """Best, median and worst member of max over steps 0..k of |E - E0| / |E0|, against a plain loop (with
+    every=7 the steps between kept ones count too); then what an --ensemble run records."""
     rng = np.random.default_rng(3)
     energies = 1.0 + np.cumsum(rng.normal(0.0, 1e-3, (50, 5)), axis=0)
     energies[0] = 1.0
@@ -273,9 +270,6 @@ def test_the_ensemble_plots_each_members_worst_error_so_far_over_every_step():
                  for i in range(5)]
         np.testing.assert_allclose(spread[row], [min(worst), np.median(worst), max(worst)], rtol=1e-12)
     assert (spread[1:] >= spread[:-1]).all(), "a worst-so-far never falls: no spikes"
-
-
-def test_the_ensemble_recording_holds_member_paths_and_tells_every_curve_apart(tmp_path):
     assert engine.main(["--ensemble", "30", "--out", str(tmp_path)]) == 0
     _, entities, settings = read_recording(tmp_path / engine.RECORDING_FILE)
     looks = course.looks(engine.integrators_for(engine.build_system("orbit", np.random.default_rng(0))))
