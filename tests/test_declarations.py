@@ -1,5 +1,5 @@
-"""What each system and integrator declares is measured (the order in test_closed_form.py and test_damping.py,
-potential in test_engine.py), and the modules import one way. A test that needs something a system does not
+"""What each system and integrator declares is measured (the order in test_closed_form.py and test_damping.py),
+and the modules import one way. A test that needs something a system does not
 have skips it and says why."""
 
 import ast
@@ -47,11 +47,14 @@ def test_each_step_asks_for_the_force_as_often_as_its_passport_says(system_name,
 
 
 @pytest.mark.parametrize("system_name", SYSTEMS)
-def test_the_forces_velocity_dependence_is_what_the_system_declares(system_name):
-    """velocity_free=True: the force ignores the velocity, and only then; a declared dforce_dv is d force / d v."""
+def test_the_force_is_what_the_system_declares(system_name):
+    """velocity_free=True: the force ignores the velocity, and only then; a declared dforce_dv is d force / d v;
+    potential=True: force = -grad of the energy, or the energy is not the referee of the motion (independent of any
+    closed form; central differences, h = 1e-6: error ~1e-9 of the force)."""
     system, h = built(system_name), 1e-6
     for q, v in nearby_states(system):
-        same = np.array_equal(system["force"](q, v), system["force"](q, v + 0.5))
+        force = system["force"](q, v)
+        same = np.array_equal(force, system["force"](q, v + 0.5))
         assert same == system["velocity_free"], (
             f"{system_name} declares velocity_free={system['velocity_free']}, but its force"
             f" {'does not depend' if same else 'depends'} on the velocity")
@@ -60,6 +63,11 @@ def test_the_forces_velocity_dependence_is_what_the_system_declares(system_name)
             np.testing.assert_allclose(derivative, system["dforce_dv"] * axis, rtol=0, atol=1e-6, err_msg=(
                 f"{system_name} declares dforce_dv={system['dforce_dv']}, which is not d force / d v: declare the"
                 " derivative its force has"))
+        gradient = np.array([system["energy"](q + d, v) - system["energy"](q - d, v) for d in h * np.eye(3)]) / (2 * h)
+        minus_gradient = np.allclose(force, -gradient, rtol=0, atol=1e-6 * (1 + np.abs(force).max()))
+        assert minus_gradient or not system["potential"], (
+            f"{system_name} declares potential=True: its force must be -grad of its energy's potential part (or"
+            " declare potential=False)")
 
 
 @pytest.mark.parametrize("system_name", SYSTEMS)

@@ -57,23 +57,6 @@ def test_seed_jitters_one_initial_condition_per_system():
         assert len(changed) == 1, f"{system}: the seed should move exactly one number of the start"
 
 
-@pytest.mark.parametrize("system_name", list(engine.SYSTEMS))
-def test_each_conservative_force_is_minus_the_gradient_of_its_energy(system_name):
-    """Independent of any closed form: a conservative system's force and energy must agree, F = -grad V, or its
-    energy is not the referee of its motion (central differences, h = 1e-6: error ~1e-9 of the force)."""
-    system = engine.build_system(system_name, np.random.default_rng(0))
-    if not system["potential"]:
-        pytest.skip(f"{system_name} declares no potential (potential=False): its force is not -grad of its energy")
-    rng, h = np.random.default_rng(1), 1e-6
-    for _ in range(5):
-        q, v = system["q0"] + rng.uniform(-0.2, 0.2, 3), system["v0"] + rng.uniform(-0.2, 0.2, 3)
-        gradient = np.array([system["energy"](q + d, v) - system["energy"](q - d, v) for d in h * np.eye(3)]) / (2 * h)
-        force = system["force"](q, v)
-        np.testing.assert_allclose(force, -gradient, rtol=0, atol=1e-6 * (1 + np.abs(force).max()),
-                                   err_msg=f"{system_name} declares potential=True: its force must be -grad of its"
-                                           " energy's potential part (or declare potential=False)")
-
-
 def test_the_steps_and_the_energy_are_what_the_chapter_writes():
     """Semi-implicit Euler moves the position with the new velocity (from v0 = 0 explicit Euler does not move it);
     simulate() is the plain loop of steps, and its energy of a history is the energy of each state alone."""
