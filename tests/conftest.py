@@ -1,5 +1,6 @@
 """Helpers shared by the tests: run engine.py the way a student does."""
 
+import functools
 import hashlib
 import os
 import shutil
@@ -9,7 +10,11 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+import engine
+import engine_ensembles
 
 # A runner may start the suite with Ctrl-C or SIGTERM ignored (a background job of a non-interactive shell is
 # started that way); the programs under test keep an ignored signal ignored, on purpose. The signal tests need
@@ -30,7 +35,7 @@ CHECKOUT_JOURNAL = REPO / "exercises" / "journal.jsonl"
 
 
 @pytest.fixture(autouse=True, scope="session")
-def _the_checkouts_journal_is_left_alone():
+def _the_checkouts_journal_is_left_alone():  # under pytest-xdist each worker checks the tests it ran
     def state():
         return hashlib.sha256(CHECKOUT_JOURNAL.read_bytes()).hexdigest() if CHECKOUT_JOURNAL.exists() else None
 
@@ -48,21 +53,12 @@ def run_engine(*args, cwd=None, env=None, timeout=120):
 
 def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0, every: int = 1):
     """One run as main() makes it (simulate_long, every k-th state kept): (positions, velocities, energies)."""
-    import numpy as np
-
-    import engine
-
     system = engine.build_system(system_name, np.random.default_rng(seed))
     return engine.simulate_long(engine.integrators_for(system)[integrator], system, dt, steps, every)
 
 
 def ensemble_of(system_name: str, seeds) -> dict:
     """engine_ensembles.build_ensemble for the system called `system_name`."""
-    import functools
-
-    import engine
-    import engine_ensembles
-
     return engine_ensembles.build_ensemble(functools.partial(engine.build_system, system_name), seeds)
 
 

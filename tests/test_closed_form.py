@@ -7,11 +7,9 @@ import pytest
 
 import engine
 
-# Every declared system with a closed form, and every integrator that can run it: a new one is tested here
-# the day it is declared. HORIZON: sim seconds, fixed while dt shrinks (2 pi for the orbit: a circular orbit's
-# period; seed 0's ellipse takes 6.552 s).
+# Every declared system with a closed form, every integrator it is offered: a new one is tested the day it is declared.
 WITH_EXACT = [name for name in engine.SYSTEMS if engine.build_system(name, np.random.default_rng(0)).get("exact")]
-HORIZON = {"orbit": 2.0 * math.pi}  # any other system: 2 s
+HORIZON = {"orbit": 2.0 * math.pi}  # seconds, fixed while dt shrinks (a circular orbit's period); others: 2 s
 
 
 def exact_at(system, t):
