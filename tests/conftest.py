@@ -16,9 +16,9 @@ import pytest
 import engine
 import engine_ensembles
 
-# A runner may start the suite with Ctrl-C or SIGTERM ignored (a background job of a non-interactive shell is
-# started that way); the programs under test keep an ignored signal ignored, on purpose. The signal tests need
-# them delivered, to this process and to the children it starts (a handled signal is default again after exec).
+# A runner may start the suite with Ctrl-C or SIGTERM ignored (as a non-interactive shell starts a background job);
+# the programs keep an ignored signal ignored, on purpose, and the signal tests need them delivered, here and in
+# the children (a handled signal is default again after exec).
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 if signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
@@ -27,9 +27,8 @@ if signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
 REPO = Path(__file__).resolve().parents[1]
 ENGINE = REPO / "engine.py"
 
-# The exercises record every prediction and check in the checkout's journal (curriculum/common/journal.py). The
-# suite's runs are not a student's: nothing is recorded, in this process and in every process it starts, and a
-# test of the journal points COURSE_JOURNAL at a scratch file of its own.
+# The suite's runs are not a student's: nothing goes into the checkout's journal, here or in any process started,
+# and a test of the journal points COURSE_JOURNAL at a scratch file of its own.
 os.environ["COURSE_JOURNAL"] = "off"
 CHECKOUT_JOURNAL = REPO / "exercises" / "journal.jsonl"
 

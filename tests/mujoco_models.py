@@ -1,10 +1,7 @@
-"""The engine's systems as MuJoCo models, for the parity tests and the maintainers' tools (which put tests/ on
-their import path): one body of mass 1 on slide joints, so qpos/qvel are exactly the engine's q/v, no contacts.
-The spring is one joint along x with its stiffness, the freefall three under gravity; the orbit, and any system
-declared later, three joints pulled by the engine's own force law through the passive-force callback. The damped
-spring (issue 12) is one joint with stiffness and damping: MuJoCo integrates joint damping implicitly in all but
-RK4, and on a blown-up state it warns, writes MUJOCO_LOG.TXT where it runs and resets (a jump back to qpos0 = 0),
-so those runs happen in a temporary folder.
+"""The engine's systems as MuJoCo models (for the parity tests and tools/): one body of mass 1 on slide joints, so
+qpos/qvel are the engine's q/v. The spring: one joint with its stiffness; the freefall: three under gravity; others:
+three, pulled by the engine's force law through the passive-force callback; the damped spring: one joint with
+stiffness and damping, run in a temporary folder (on a blown-up state MuJoCo writes MUJOCO_LOG.TXT and resets).
 """
 
 import contextlib

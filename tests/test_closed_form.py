@@ -12,8 +12,7 @@ WITH_EXACT = [name for name in engine.SYSTEMS if engine.build_system(name, np.ra
 HORIZON = {"orbit": 2.0 * math.pi}  # seconds, fixed while dt shrinks (a circular orbit's period); others: 2 s
 
 
-def exact_at(system, t):
-    """The system's own exact motion (engine.py) from its start, at the times t."""
+def exact_at(system, t):  # the system's own exact motion from its start, at the times t
     return system["exact"](system["q0"], system["v0"], np.atleast_1d(t))
 
 

@@ -23,8 +23,7 @@ def built(system_name: str) -> dict:
     return engine.build_system(system_name, np.random.default_rng(0))
 
 
-def nearby_states(system: dict, count: int = 5):
-    """States near the start: positions and velocities moved by up to 0.2 in each component."""
+def nearby_states(system: dict, count: int = 5):  # the start moved by up to 0.2 in each component
     rng = np.random.default_rng(1)
     for _ in range(count):
         yield system["q0"] + rng.uniform(-0.2, 0.2, 3), system["v0"] + rng.uniform(-0.2, 0.2, 3)

@@ -43,8 +43,7 @@ def test_ordering_count_names_the_seeds_where_it_fails():
     assert block["ordering_not_judged"] == 0
 
 
-def ensemble_run(tmp_path, capsys, *args):
-    """(metrics.json's bytes, stdout) of an in-process `python engine.py --no-rerun ARGS`."""
+def ensemble_run(tmp_path, capsys, *args):  # (metrics.json's bytes, stdout) of `python engine.py --no-rerun ARGS`
     assert engine.main([*args, "--no-rerun", "--out", str(tmp_path)]) == 0
     return (tmp_path / "metrics.json").read_bytes(), capsys.readouterr().out
 

@@ -27,7 +27,7 @@ def seen(rgb, deficiency):
     return colorspacious.cspace_convert(colour, "sRGB1", "CAM02-UCS")
 
 
-def distance(a, b, deficiency):
+def distance(a, b, deficiency):  # in CAM02-UCS, as this viewer sees them
     return float(np.linalg.norm(seen(a, deficiency) - seen(b, deficiency)))
 
 

@@ -70,8 +70,7 @@ def views_of(settings):
     return views
 
 
-def frame(props):
-    """(target, half): where the camera looks, and the least it frames either side of it (half its height)."""
+def frame(props):  # (target, half): where the camera looks, and the least it frames either side (half its height)
     target, eye = np.array(props["EyeControls3D:look_target"]), np.array(props["EyeControls3D:position"])
     return target, (eye[2] - target[2]) / 2.0
 
@@ -327,9 +326,7 @@ LISTED = {  # issue 24's recordings, made as a student makes them (the README's 
     "damped spring at b 300": ["--system", "damped_spring", "--damping", "300"],
     "orbit at dt 0.5": ["--system", "orbit", "--dt", "0.5"],
     "ensemble of 1000": ["--ensemble", "1000"],
-    "exercise 5": "ex5",
-    "exercise 7": "ex7",
-}
+}  # exercises 5 and 7 frame and fill their own recordings: tests/test_ex5.py, tests/test_ex7.py
 EDGES = {  # where every integrator diverges, the damping limit, one step, a blow-up at the very first step
     "spring at dt 3": ["--system", "spring", "--dt", "3"],
     "damped spring at b 1e6": ["--system", "damped_spring", "--damping", "1e6"],
@@ -342,32 +339,13 @@ EDGES = {  # where every integrator diverges, the damping limit, one step, a blo
 SMOOTH = {*LISTED, "orbit at dt 5"}
 
 
-def made(case, tmp_path):
-    """(entities, blueprint settings, metrics.json or None) of one case's recording, made in this process."""
-    from exercises import ex5_phase_blob as ex5
-    from exercises.support import shadow, shadow_recording
-
-    rrd = tmp_path / "case.rrd"
-    metrics = None
-    if case == "ex5":
-        ex5.record(rrd, ex5.measure(ex5.DT, ex5.STEPS))
-    elif case == "ex7":
-        rrd.write_bytes(shadow_recording.record({name: shadow.measure(name) for name in shadow.SYSTEMS}))
-    else:
-        assert engine.main([*case, "--out", str(tmp_path)]) == 0
-        rrd, metrics = tmp_path / engine.RECORDING_FILE, json.loads((tmp_path / engine.METRICS_FILE).read_text())
-    _, entities, settings = read_recording(rrd)
-    return entities, settings, metrics
-
-
 def is_grey(packed_colour):
-    r, g, b = (packed_colour >> 24) & 0xFF, (packed_colour >> 16) & 0xFF, (packed_colour >> 8) & 0xFF
-    return r == g == b
+    return len({(packed_colour >> shift) & 0xFF for shift in (24, 16, 8)}) == 1  # red == green == blue
 
 
 def must_frame(entities, origin, labels):
     """The points a spatial view must frame, as the recording holds them: its exact motion where it draws one,
-    or else every path of a run whose key names no blow-up (an ensemble's members, exercise 5's blobs)."""
+    or else every path of a run whose key names no blow-up (an ensemble's members)."""
     if f"/{origin}/exact" in entities:
         return [np.array(strip) for strip in column(entities[f"/{origin}/exact"], "LineStrips3D:strips")[0]]
     bounded = [name for name, label in labels.items() if "overflowed" not in label]
@@ -390,18 +368,20 @@ def test_every_recording_frames_what_stays_bounded_and_shows_every_integrator(ca
     a run that blew up says so in the key with the step metrics.json names; every integrator in a plot has a
     value to draw; lines that could lie on one another differ in width; and no empty column (which crashes the
     viewer) is ever sent. pytest never opens a viewer: tools/screenshots.py shows the same recordings."""
-    entities, settings, metrics = made({**LISTED, **EDGES}[case], tmp_path)
+    assert engine.main([*{**LISTED, **EDGES}[case], "--out", str(tmp_path)]) == 0
+    _, entities, settings = read_recording(tmp_path / engine.RECORDING_FILE)
+    metrics = json.loads((tmp_path / engine.METRICS_FILE).read_text())
     listed = case in LISTED
     for path, batches in entities.items():
         assert all(batch.num_rows > 0 for batch in batches), f"{path}: an empty column (Rerun 0.41's viewer panics)"
-    integrators = list(metrics["drift"]) if metrics else list(engine.CHAPTER_INTEGRATORS)
+    integrators = list(metrics["drift"])
     for (kind, origin), props in views_of(settings).items():
         if kind == "3D":
             names = integrators if f"/{origin}/key" in entities else []
             labels = key_labels(entities, origin, names) if names else {}
             for name, label in labels.items():  # the step a run blew up at: the table's and metrics.json's
-                step = metrics and metrics["drift"][name].get("energy_overflow_step")
-                if metrics and origin != "ensemble_paths":
+                step = metrics["drift"][name].get("energy_overflow_step")
+                if origin != "ensemble_paths":
                     assert (f"energy overflowed at step {step:,}" in label) if step else ("overflowed" not in label)
             points = np.concatenate([p.reshape(-1, 3) for p in must_frame(entities, origin, labels)])
             target, half = frame(props)
