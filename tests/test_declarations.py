@@ -75,8 +75,8 @@ def test_a_damped_system_loses_energy_at_the_rate_its_dissipation_says(system_na
     system = built(system_name)
     if not system["damped"]:
         pytest.skip(f"{system_name} is not damped")
-    dt = 1e-4
-    positions, velocities, energies = engine.simulate(engine.rk4_step, system, dt, 2000)
+    assert "dissipation" in system, f"{system_name} declares damped=True: give it dissipation(q, v), the power lost"
+    positions, velocities, energies = engine.simulate(engine.rk4_step, system, dt := 1e-4, 2000)
     rate = (energies[2:] - energies[:-2]) / (2 * dt)
     power = system["dissipation"](positions[1:-1], velocities[1:-1])
     np.testing.assert_allclose(rate, -power, rtol=0, atol=1e-6 * power.max(),  # central differences: ~1e-8
