@@ -13,13 +13,13 @@ import numpy as np
 
 import engine
 
+BODY = '<inertial pos="0 0 0" mass="{m}" diaginertia="1 1 1"/>'  # tests/test_ex7.py builds its spring with it
 NATIVE = ("spring", "freefall")  # built from MuJoCo's own joint stiffness and gravity
 
 
 def model_xml(joints: str, integrator: str, dt: float, m: float, gravity: str = "0 0 0", flag: str = "") -> str:
     return (f'<mujoco><option timestep="{dt!r}" integrator="{integrator}" gravity="{gravity}">{flag}</option>'
-            f'<worldbody><body name="mass">{joints}<inertial pos="0 0 0" mass="{m}" diaginertia="1 1 1"/>'
-            "</body></worldbody></mujoco>")
+            f'<worldbody><body name="mass">{joints}{BODY.format(m=m)}</body></worldbody></mujoco>')
 
 
 def xml_for(system_name: str, integrator: str, dt: float, m: float) -> str:
