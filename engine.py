@@ -3,7 +3,7 @@
 A state (q, v, m), a force law and three integrators (explicit Euler, semi-implicit
 Euler, RK4), run on three conservative systems. Energy is the referee: a perfect
 integrator would hold it constant, so how far each one drifts, and in which shape,
-is what we measure. A damped spring shows the next rung: its referee is its exact
+is what we measure. Beyond the chapter, a damped spring: its referee is its exact
 solution, and a fourth step, implicit in the damping as MuJoCo's Euler is, joins in.
 
 Run it from the repo root:
@@ -12,7 +12,7 @@ Run it from the repo root:
     python engine.py --system freefall     # a motion that never comes back
     python engine.py --smoke --no-rerun    # fixed 600 steps: what CI diffs byte for byte
     python engine.py --ensemble 1000       # seeds 0..999 stepped together: does the ordering always hold?
-    python engine.py --system damped_spring --damping 300   # stiff damping: the implicit rung
+    python engine.py --system damped_spring --damping 250   # exercise 6's stiff damper: predict it first
 
 Open the recording with `rerun outputs/ch3.3-engine/engine.rrd`.
 """
@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-import engine_damping  # the next rung, a damper: registered below the chapter's integrators
+import engine_damping  # beyond the chapter, a damper: registered below the chapter's integrators
 import engine_ensembles as ensembles  # --ensemble N: many seeds as one batch
 import engine_recording  # all of Rerun, which it loads only to record
 import engine_registry as registry  # the declarations: the facts each system and integrator states
@@ -133,7 +133,7 @@ def freefall(rng):
 # --- integrators ---
 # Each takes the state (q, v) and returns it one timestep dt later. They differ only in where
 # they look at the velocity and the force, and that is the whole lesson. @integrator declares
-# each with its passport: its order, and its force evaluations per step.
+# what the tests check of each: its order, and its force evaluations per step.
 
 @integrator("euler", order=1, force_evaluations=1)
 def euler_step(q, v, m, force, dt):
@@ -182,7 +182,7 @@ def rk4_step(q, v, m, force, dt):
     return q_next, v_next
 
 
-# The next rung, in engine_damping.py: a damped spring, and a step implicit in the damping.
+# Beyond the chapter, in engine_damping.py: a damped spring, and a step implicit in the damping.
 system("damped_spring", potential=False, velocity_free=False, damped=True)(engine_damping.damped_spring)
 integrator("implicit", order=1, force_evaluations=1, chapter=False, needs=["dforce_dv"])(engine_damping.implicit_step)
 CHAPTER_INTEGRATORS = tuple(name for name, step in INTEGRATORS.items() if step.chapter)  # euler, semi_implicit, rk4
@@ -194,7 +194,8 @@ CHAPTER_INTEGRATORS = tuple(name for name, step in INTEGRATORS.items() if step.c
 def simulate(step_fn, system: dict, dt: float, steps: int):
     """Integrate `system` for `steps` steps of `dt`. Returns (positions, velocities, energies) of every state,
     row 0 the start: (steps + 1, 3) and (steps + 1,), or (steps + 1, N, 3) and (steps + 1, N) for a batch.
-    A state that blows up is carried on as inf/NaN without warnings; energy_drift() says from which step."""
+    A state that blows up is carried on as inf/NaN without warnings. energy_drift() says at which step the energy
+    overflowed, which can come well before the state itself does: the energy squares it."""
     q = np.array(system["q0"], dtype=float)
     v = np.array(system["v0"], dtype=float)
     m, force, energy = system["m"], system["force"], system["energy"]
@@ -348,11 +349,11 @@ def parse_args(argv=None) -> argparse.Namespace:
                         help="'all' runs the three-way comparison, which is the point; on damped_spring it"
                              " adds implicit, the damping taken at the new velocity (default all)")
     parser.add_argument("--damping", type=positive_finite("--damping", engine_damping.MAX_DAMPING), default=None,
-                        help=f"damped_spring's b in N s/m (default {engine_damping.DAMPING}); 300 at dt 0.01 is"
-                             " the stiff case")
+                        help=f"damped_spring's b in N s/m (default {engine_damping.DAMPING}); exercise 6 asks what"
+                             " 250 does at dt 0.01")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
-                        help="timestep in sim seconds, any positive number; raise it and every drift grows"
-                             " (default 0.01)")
+                        help="timestep in sim seconds, positive, short enough that --steps of it fit in a float"
+                             " (default 0.01); raise it and every drift grows, but round-off (RK4's on the freefall)")
     parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=None,
                         help=f"steps per integrator, 1 to {MAX_STEPS:,} (default {DEFAULT_STEPS:,})")
     parser.add_argument("--smoke", action="store_true",

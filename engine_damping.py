@@ -1,4 +1,4 @@
-"""The next rung, for `python engine.py --system damped_spring`: a spring with a damper, a step implicit in the
+"""Beyond the chapter, for `python engine.py --system damped_spring`: a spring with a damper, a step implicit in the
 damping as MuJoCo's Euler is, and the audit that referees them against the closed-form solution.
 
 engine.py registers `damped_spring` as a system and `implicit_step` as an integrator, each in one line, so
@@ -13,7 +13,7 @@ import numpy as np
 from curriculum.common.report import cell, sim_time
 from engine_referee import damped_oscillator, distance, dot3
 
-DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (300 is the stiff case)
+DAMPING = 0.5  # the damped spring's b, N s/m, unless --damping says otherwise (exercise 6 asks about 250)
 MAX_DAMPING = 1e6  # N s/m: dt b/m = 10,000, the map's last column; from ~7e8 the recording's exact velocity overflows
 BOUNDED_SLACK = 1e-3  # a steady oscillation's sampled peaks differ by less than this between halves
 

@@ -85,13 +85,16 @@ def log_flat(rr, recording, origin, name, looks, paths, kept, exact=None, anchor
     the origin, whose ticks read in true units where an axis is drawn `scales` times its size."""
     reference = [exact] if exact is not None else [p for p in paths.values() if course.drawable(p).all()]
     reference = [*(reference or paths.values()), *np.reshape(anchors, (-1, 1, 3))]
-    framed = [*reference, *course.near(reference, paths.values())]
+    near = course.near(reference, paths.values())
+    framed = [*reference, *near]
     low, high = course.extent(framed)
     span = float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
     widths = course.layered_widths(paths, widest=3.0, thinnest=1.25)
     for rank, path_name in enumerate(sorted(paths)):
         lifted = paths[path_name] + [0.0, 0.0, LIFT * span * rank]
-        log_bodies(rr, recording, f"{origin}/{path_name}", looks[path_name], lifted, kept, widths[path_name])
+        leaves = not any(path is paths[path_name] for path in near)  # its trail ends where it leaves the frame
+        trail = until_it_leaves(lifted, low - span, high + span) if leaves else lifted
+        log_bodies(rr, recording, f"{origin}/{path_name}", looks[path_name], lifted, kept, widths[path_name], trail)
     if exact is not None:
         below = exact[course.drawable(exact)] - [0.0, 0.0, LIFT * span]
         recording.log(f"{origin}/exact", rr.LineStrips3D([below], colors=[EXACT_GREY],
@@ -105,15 +108,27 @@ def log_flat(rr, recording, origin, name, looks, paths, kept, exact=None, anchor
     return course.from_above(origin, name, [*framed, key], tilt=tilt, margin=1.3 if axes else 1.2)
 
 
-def log_bodies(rr, recording, entity, look, points, kept, width):
-    """One run in a spatial view: its whole path as a trail `width` points wide, and a body that travels along it,
-    the wider the trail the bigger the body (so bodies on one another show as rings round the smallest).
+def until_it_leaves(points, low, high):
+    """A path up to its first point outside low..high (x and y) or not drawable, that point included if drawable:
+    a run that leaves the frame is drawn leaving it once, not zigzagging across the whole view."""
+    inside = course.drawable(points) & (points[:, :2] >= low[:2]).all(axis=1) & (points[:, :2] <= high[:2]).all(axis=1)
+    if inside.all():
+        return points
+    first_out = int(np.argmin(inside))
+    return points[:first_out + 1] if course.drawable(points[first_out:first_out + 1]).all() else points[:first_out]
+
+
+def log_bodies(rr, recording, entity, look, points, kept, width, trail=None):
+    """One run in a spatial view: its path as a trail `width` points wide (`trail`, if given: the part drawn),
+    and a body that travels along the whole run, the wider the trail the bigger the body (so bodies on one
+    another show as rings round the smallest).
 
     Sizes are in screen points, so a body stays a visible dot and a trail a thin line at any zoom.
     """
     shown = course.drawable(points)
     colour = [look.colour]
-    trail = rr.LineStrips3D([points[shown]], colors=colour, radii=rr.components.Radius.ui_points(width / 2.0))
+    trail = points[shown] if trail is None else trail[course.drawable(trail)]
+    trail = rr.LineStrips3D([trail], colors=colour, radii=rr.components.Radius.ui_points(width / 2.0))
     recording.log(f"{entity}/trail", trail, static=True)
     body = rr.Points3D.from_fields(colors=colour, radii=rr.components.Radius.ui_points(3.0 + 2.0 * width))
     recording.log(f"{entity}/body", body, static=True)
@@ -225,11 +240,11 @@ def log_position_error(rr, recording, system, runs, kept, dt, looks):
     """log10 |q - q_exact| in metres: RK4 sits orders of magnitude below semi-implicit Euler."""
     exact = exact_path(system, kept, dt)
     curves = {name: log10_of(distance(positions, exact)) for name, (positions, _, _) in runs.items()}
-    logged = log_curves(rr, recording, "position_error", curves, kept, looks)
+    log_curves(rr, recording, "position_error", curves, kept, looks)
     # log10 = 0: off by 1 m, the size of the orbit (or of the spring's swing) itself. "zero" sorts last.
     log_level(rr, recording, "position_error/zero", "1 m, the size of the motion", 0.0, kept)
     return course.time_series("position_error", "position error against the exact motion: log10 |q - q_exact| (m)",
-                              kept[-1], [logged, [0.0]])
+                              kept[-1], [*fitted(curves, runs), [0.0]])
 
 
 def log_energy_error(rr, recording, system, runs, kept, dt, looks):
@@ -237,9 +252,17 @@ def log_energy_error(rr, recording, system, runs, kept, dt, looks):
     curves = {}
     for name, (_, _, energies) in runs.items():
         curves[name] = log10_of(np.abs(relative_energy_error(energies[kept])))
-    logged = log_curves(rr, recording, "energy_error", curves, kept, looks)
+    log_curves(rr, recording, "energy_error", curves, kept, looks)
     log_level(rr, recording, "energy_error/zero", "100% of E0", 0.0, kept)  # log10 = 0: all of it
-    return course.time_series("energy_error", "energy error: log10 |E - E0| / |E0|", kept[-1], [logged, [0.0]])
+    return course.time_series("energy_error", "energy error: log10 |E - E0| / |E0|", kept[-1],
+                              [*fitted(curves, runs), [0.0]])
+
+
+def fitted(curves: dict, runs: dict) -> list:
+    """The curves a plot's y range is fitted to: those of the runs that did not blow up (all, if every one did),
+    so a run that blew up is seen climbing out of the plot instead of squashing the others flat."""
+    finite = [curves[name] for name, (_, _, energies) in runs.items() if overflow_step(energies) is None]
+    return finite or list(curves.values())
 
 
 def log_energy_change(rr, recording, system, runs, kept, dt, looks):

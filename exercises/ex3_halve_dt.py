@@ -108,6 +108,7 @@ def story(system_name: str, errors: dict) -> list:
 
     rk4_position, rk4_energy = factors("position", "rk4"), factors("energy", "rk4")
     side = "above" if rk4_position[0] > 16 else "below"
+    finest = errors["position"]["rk4"][-1]
     lines = [
         "What the ladder shows:",
         f"- Position, euler ({span(factors('position', 'euler'))}) and semi_implicit"
@@ -119,7 +120,9 @@ def story(system_name: str, errors: dict) -> list:
         " the dt^4 term, and it fades as dt shrinks. RK4's ladder starts at dt 0.1, ten times coarser than"
         f" the Eulers': from 0.01 its error would drop below {FLOOR['position']:g} within two halvings, and the"
         " table shows no factor below that. The threshold sits far above the rounding itself (about 1e-14),"
-        " so that no digit shown is rounding; its finest rungs here reach it too.",
+        " so that no digit shown is rounding. " + (
+            "Here RK4's finest error falls below it: that rung shows no factor." if finest <= FLOOR["position"] else
+            f"Here RK4's finest error, {finest:.2e}, stays above it: every factor shows."),
         f"- Energy, euler ({span(factors('energy', 'euler'))}) and semi_implicit"
         f" ({span(factors('energy', 'semi_implicit'))}): first order too. For semi-implicit Euler this error is"
         " its band's farthest reach from E0, and it halves with dt.",

@@ -147,16 +147,15 @@ def modified_energy_drift(x: np.ndarray, v: np.ndarray, dt: float) -> tuple[floa
 
 # --- the recording ---
 
-def decades_above_same(ratios: np.ndarray) -> np.ndarray:
-    """The recording's signed area change: how many decades |area / area0 - 1| stands above SAME, with its
-    sign: up the area grew, down it shrank, 0 it stayed (round-off, as the exercise grades it)."""
-    with np.errstate(divide="ignore"):  # an area that did not change at all has no logarithm: 0 decades
-        return np.sign(ratios) * np.maximum(np.log10(np.abs(ratios)) - math.log10(SAME), 0.0)
+def unit_of(ratios: np.ndarray) -> float:
+    """The power of ten the recording draws an area change in: its largest |area / area0 - 1| reads 1 to 10."""
+    top = float(np.max(np.abs(ratios)))
+    return 10.0 ** math.floor(math.log10(top)) if top > 0.0 else 1.0
 
 
 def record(path: Path, table: dict) -> None:
     """The blob's edge in the (x, v_x) plane on the `step` timeline, one colour per integrator, the
-    starting disc in grey, and beside it each area's change, signed (decades_above_same). Built in memory,
+    starting disc in grey, and beside it each area's change, signed, in its own plot. Built in memory,
     then written atomically (write_atomic); it opens the course's way (curriculum/common/recording.py).
 
     The file opens on the last step: explicit Euler's blob swollen and far out, the other two on top of
@@ -196,17 +195,17 @@ def record(path: Path, table: dict) -> None:
         plane = course.from_above("phase", "the blob in (x, v_x), grey: where it started",
                                   [*edges.values(), axes_box, key], margin=1.3)
 
-        # the area's change, signed: a line that lies on the floor (semi-implicit Euler's) is drawn thinnest, on top
-        steps, widths = np.arange(STEPS + 1), course.layered_widths(table, widest=4.0, thinnest=1.5)
-        changes = [course.log_series(stream, f"area/{name}", steps, decades_above_same(row["ratios"]), looks[name],
-                                     widths[name]) for name, row in table.items()]
-        course.log_series(stream, "area/same", [0, STEPS], [0.0, 0.0],
-                          course.Look(course.GREY, f"stays: changed by under {SAME:g}, round-off"), width=6.0)
-        low, high = course.padded([*changes, [0.0]])
-        # room under the lowest curve for the legend
-        title = (f"the area's change, signed: up grows, down shrinks; decades above {SAME:g}"
-                 f" (log10 |area / area0 - 1| + {-math.log10(SAME):g})")
-        area = course.time_series("area", title, STEPS, y_range=(low - 0.2 * (high - low), high))
+        # each area's change in its own plot, in true units times a power of ten the title names, the sign kept
+        steps, plots = np.arange(STEPS + 1), []
+        for name, row in table.items():
+            unit, label = unit_of(row["ratios"]), looks[name].label
+            change = course.log_series(stream, f"area/{name}/change", steps, row["ratios"] / unit, looks[name])
+            course.log_series(stream, f"area/{name}/zero", [0, STEPS], [0.0, 0.0], course.Look(course.GREY, "0"))
+            scale = "" if unit == 1.0 else f", in units of {unit:.0e}"
+            verdict = f"round-off (under {SAME:g})" if abs(row["measured"]) < SAME else f"{row['measured']:+.3g}"
+            plots.append(course.time_series(f"area/{name}", f"{label}: area / area0 - 1{scale}; at the end {verdict}",
+                                            STEPS, [change, [0.0]]))
+        area = rrb.Vertical(*plots)
         return course.opening(rrb.Horizontal(plane, area), STEPS)
 
     write_atomic(path, course.recorded("zero2robot-ch3_3-ex5", fill))

@@ -96,10 +96,11 @@ def main(argv=None) -> int:
 
     bounds = {name: stability_map.analytic_interval(name, w) for name in NAMES}
     explain("", f"Here c = dt b/m = {c:g} per step. Both Eulers take the damping at the old velocity, so each step"
-            " multiplies v by 1 - c: past c = 2 it flips sign and grows. RK4's four samples stretch that limit to"
-            f" c = {bounds['rk4'][1]:.3f} on this spring, so it survives here. The implicit step takes the damping at"
-            " the new velocity and divides v by 1 + c: bounded for any damping. MuJoCo's default Euler does the"
-            " same on a damped joint. What keeps a step bounded is where it takes the damping, not its order.",
+            " multiplies v by 1 - c: past c = 2 it flips sign and grows. RK4 takes it at old velocities too, four"
+            f" times a step, which moves its limit to c = {bounds['rk4'][1]:.3f} on this spring: it survives"
+            f" {c:g}, not 3. The implicit step takes the damping at the new velocity and divides v by 1 + c:"
+            " bounded at any damping, as MuJoCo's default Euler is on a damped joint. Order moves the limit;"
+            " the new velocity removes it.",
             more=lambda: the_whole_story(c, w, bounds))
     return 0
 
@@ -119,7 +120,8 @@ def the_whole_story(c: float, w: float, bounds: dict) -> list:
         " a floor, c >= w^2: with less damping than that it adds energy, as it does to the orbit.",
         f"- rk4 samples the damping four times per step; its factor on a pure decay is 1 - c + c^2/2 - c^3/6 + c^4/24,"
         f" {1 - c + c * c / 2 - c * c * c / 6 + c * c * c * c / 24:.3f} at c = {c:g}: between -1 and 1 up to c = 2.785,"
-        " where it reaches 1, and no further.",
+        " where it reaches 1, and no further. At b = 300, c = 3: `python engine.py --system damped_spring"
+        " --damping 300` shows RK4 blow up there too.",
         f"- implicit takes it at the NEW velocity: m (v_new - v) = -dt b v_new, so v_new = v / (1 + c) ="
         f" {1 / (1 + c):.3f} v: it shrinks for every c. Its spring is still explicit, though (look at the top"
         " rows): it needs w <= sqrt(4 + 2c) (at c = 0, w < 2), so a stiff enough spring beats it too.",

@@ -3,8 +3,8 @@
     python -m exercises.ex7_shadow_energy                  # the formula and the question, nothing else
     python -m exercises.ex7_shadow_energy --predict spring=<word>,orbit=<word>,freefall=<word>
 
-Exercise 5 ended on the spring with a nearby quadratic, E - k dt x v / 2. The same idea, written for
-any force F = -grad V, is a nearby energy
+With V(q) the potential energy, so that the energy is E = m v . v / 2 + V(q) and the force is
+F = -grad V (minus V's slope), the candidate is a nearby energy
 
     E~ = E - (dt/2) v . grad V(q) = E + (dt/2) v . F(q)
 
@@ -37,12 +37,13 @@ CHOICES = ("as_far", "smaller", "roundoff")
 LONG_STEPS = 16_000  # explicit Euler's E~ on the spring, 8 times the chapter's run
 DEFAULT_RRD = Path("outputs/ch3.3-engine/ex7_shadow.rrd")
 QUESTION = """\
-Semi-implicit Euler does not keep the energy E. A candidate for what it keeps instead is a nearby
-energy,
+Semi-implicit Euler does not keep the energy E = m v . v / 2 + V(q), where V is the potential
+energy and F = -grad V (minus V's slope) the force. A candidate for what it keeps instead is a
+nearby energy,
 
     E~ = E - (dt/2) v . grad V(q) = E + (dt/2) v . F(q)
 
-(on the spring, exercise 5's E - k dt x v / 2). Run the spring, the orbit and the freefall for
+(on the spring, V = k x^2 / 2, so E~ = E - k dt x v / 2). Run the spring, the orbit and the freefall for
 2000 steps of dt 0.01 under semi-implicit Euler. For each system, how far does E~ move from its
 start, compared with E?
   as_far:   as far as E does (or farther)

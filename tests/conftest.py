@@ -3,11 +3,9 @@
 import functools
 import hashlib
 import os
-import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -59,27 +57,3 @@ def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, 
 def ensemble_of(system_name: str, seeds) -> dict:
     """engine_ensembles.build_ensemble for the system called `system_name`."""
     return engine_ensembles.build_ensemble(functools.partial(engine.build_system, system_name), seeds)
-
-
-# --- permissions, as a real unprivileged user ---
-
-NOBODY = 65534
-
-
-@pytest.fixture
-def shared_tmp():
-    """A folder an unprivileged user can reach (pytest's tmp_path is private to root)."""
-    if os.geteuid() != 0:
-        pytest.skip("dropping to an unprivileged user needs root; as a normal user os.access is already honest")
-    where = Path(tempfile.mkdtemp(prefix="outputs-perm-"))
-    where.chmod(0o755)
-    yield where
-    shutil.rmtree(where)
-
-
-def as_nobody(code: str, *args, load: str = "import curriculum.common.outputs") -> subprocess.CompletedProcess:
-    """Run `code` as user nobody. The interpreter (under /root, private) starts as root and imports what
-    `load` names, then drops every privilege for good before `code` touches a file."""
-    drop = f"import os; {load}; os.setgroups([]); os.setgid({NOBODY}); os.setuid({NOBODY})\n"
-    return subprocess.run([sys.executable, "-c", drop + code, *map(str, args)], cwd=REPO,
-                          capture_output=True, text=True, timeout=60)

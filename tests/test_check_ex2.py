@@ -72,8 +72,8 @@ def test_the_students_file_still_carries_the_stubs_instructions():
         assert item in student[1:], f"{item[0]}: signature or docstring differ between the stub and its pristine copy"
 
 
-RIGHTS = sorted(p.name for p in PLANTED.glob("right_*.py") if p.name not in ("right_spawns_sleeper.py",
-                                                                               "right_chatty.py")) + ["_right.py"]
+NOT_MEASURED = ("right_spawns_sleeper.py", "right_chatty.py", "right_prints_every_call.py")  # only their messages
+RIGHTS = sorted(p.name for p in PLANTED.glob("right_*.py") if p.name not in NOT_MEASURED) + ["_right.py"]
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=() if n == "right_np_add.py" else pytest.mark.slow)
@@ -90,7 +90,7 @@ def test_the_stated_tolerance_holds_for_every_planted_right_file(name):
                                       [check_ex2.ex2_cases.collect(check_ex2.ENGINE, tasks[i]) for i in indices])
         worst = max(worst, *(float(np.max(gap)) for gap in measured.gaps))
         order = measured.order("heavy_damped_spring", measured.engine_runs)[2]
-        assert abs(order - check_ex2.METHODS[function][2]) <= check_ex2.ORDER_BAND, (function, order)
+        assert abs(order - check_ex2.METHODS[function][2]) <= 0.25, (function, order)  # the ladders measure order
     assert worst <= check_ex2.RIGHT_GAP
     if name == "right_np_add.py":
         assert worst > check_ex2.RIGHT_GAP * 0.99, worst
@@ -103,8 +103,13 @@ PLANTED_MESSAGES = {
                                   " 2,000 steps. Which velocity should move the position?"),
     "semi_position_first.py": (SEMI, "the other symplectic Euler, bounded too (on the chapter's orbit its energy"
                                      " error stays within 3.2e-04 over 2,000 steps)"),
-    "semi_sign_error.py": (SEMI, "It differs from semi-implicit Euler on every system. On a damped spring with m ="
-                                 " 2.5 (exact motion known), after 2 s at dt 0.01 it is 5.59 m from the exact motion"),
+    "semi_sign_error.py": (SEMI, "your velocity changes against the force"),
+    "semi_force_ahead.py": (SEMI, "you take the force a step ahead, where the old velocity would carry the position"),
+    "semi_right_only_at_chapter_dt.py": (SEMI, "that is explicit Euler. On the chapter's orbit its energy error"
+                                               " reaches 22.1% in 2,000 steps"),
+    "semi_picks_by_hash.py": (SEMI, "that is explicit Euler"),  # on every run: the child's hash seed is fixed
+    "semi_varies_between_calls.py": (SEMI, "its results vary between calls: called twice in a row from the same"
+                                           " state, it returned different numbers on 28 of 28 single steps"),
     "semi_forgot_mass.py": (SEMI, "It is right whenever m = 1 and wrong on a spring with m = 2.5"),
     "semi_mass_twice.py": (SEMI, "where does m enter your step?"),
     "semi_times_mass.py": (SEMI, "where does m enter your step?"),
@@ -186,6 +191,10 @@ PLANTED_MESSAGES = {
     "rk4_position_slopes_start.py": (RK4, "your position slopes are all the starting velocity"),
     "rk4_k3_along_k1.py": (RK4, "your k3 steps along k1"),
     "rk4_k4_half.py": (RK4, "your k4 is sampled half a step out"),
+    "rk4_stages_at_start_position.py": (RK4, "your stages step the velocity, but every force is taken at the"
+                                             " starting position"),
+    "rk4_stages_chained.py": (RK4, "each of your stages steps from the stage before it"),
+    "rk4_floor_division_half.py": (RK4, "as if half a step were 0. Is something divided with //?"),
     "rk4_hardcoded_force.py": (RK4, "it never calls force"),
     "rk4_signature_changed.py": (RK4, "you changed its signature to rk4_step(q, v, force, m, dt)"),
     "semi_endless.py": (SEMI, "stopped after 3 s during single steps from fresh states, without returning"),
@@ -197,6 +206,7 @@ PLANTED_MESSAGES = {
     "right_helper_module.py": (None, ""),
     "right_tableau.py": (None, ""),
     "right_chatty.py": (None, "Your code printed"),
+    "right_prints_every_call.py": (None, "Your code printed"),
     "right_spawns_sleeper.py": (None, ""),
     "helper_beside/student.py": (None, ""),
     "clash_threading/student.py": (None, "threading.py beside your file has the name of Python's standard module"
@@ -240,6 +250,14 @@ def test_no_message_quotes_the_answers_code():
     lines = {one_line(line.split("#")[0]) for line in solution.splitlines() if "=" in line or "return" in line}
     texts = [message for *_, message, _ in check_ex2.MISTAKES]
     assert not [line for line in lines for text in texts if line in text]
+
+
+def test_the_checker_keeps_the_budget_its_docs_state():
+    stated = re.search(r"chapter's part, .{0,80} stays at most ([\d,]+) lines",
+                       one_line((REPO / "docs" / "DEVELOPING.md").read_text()))
+    files = [REPO / "exercises" / "check_ex2.py", *(REPO / "exercises" / "support").glob("ex2_*.py")]
+    lines = sum(path.read_bytes().count(b"\n") for path in files)  # as wc -l counts
+    assert stated and lines <= int(stated[1].replace(",", "")), f"{lines} lines in {[p.name for p in files]}"
 
 
 BROKEN = {

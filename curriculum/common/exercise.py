@@ -1,22 +1,11 @@
 """What every exercise shares: its first line, and how the course finds its exercises.
 
-    import sys
-
-    from curriculum.common.exercise import start
-
-    start(__file__)  # first: Ctrl-C is one line from here on, and the exercise runs as a file too
-
-- `start(__file__)` installs the signal guard (curriculum.common.interrupts) before anything heavy loads
-  (only in the exercise being run: a test that imports one installs nothing),
-  and, when the exercise is run as a file (`python exercises/ex1_band.py`, or from inside exercises/),
-  puts the repo on the import path so `import engine` and `import exercises.support...` work as they do
-  under `python -m exercises.ex1_band`. It loads nothing heavy.
-- `exercises(folder)` lists a chapter's exercises by file name, `exN_topic.py`, in order. An exercise with a
-  checker beside it (`check_exN.py`) is one the student writes; the others are predict-then-run. The tests
-  and tools/bench_exercises.py read this list, so a new exercise needs no list edited (see docs/DEVELOPING.md).
-- `titles(folder)` reads each exercise's title from the headings of its README.md (`## 3. Halve the timestep`),
-  `command(module, kind)` says how a student starts one, and `next_line(folder, number)` is the one line
-  that ends every exercise's run: the next exercise's command, or after the last, where to read on.
+- `start(__file__)`, an exercise's first line: the signal guard (only in the exercise being run), and the repo on
+  the import path, so `python exercises/ex1_band.py` works as `python -m exercises.ex1_band` does.
+- `exercises(folder)`: a chapter's exercises from their file names, `exN_topic.py`, in order; one with a checker
+  beside it (`check_exN.py`) is one the student writes. `titles(folder)` reads their titles from README.md's
+  headings, `command(module, kind)` says how a student starts one, and `next_line(folder, number)` is the line that
+  ends every exercise's run: the next exercise's command, or after the last, where to read on.
 """
 
 import re
@@ -28,6 +17,8 @@ from curriculum.common.interrupts import install
 EXERCISE_FILE = re.compile(r"ex(\d+)_\w+\.py")
 EXERCISES = Path(__file__).resolve().parents[2] / "exercises"  # this chapter's: beside curriculum/
 READ_ON = "exercises/solutions/ANSWERS.md, the answers with the commands that print them"  # after the last one
+# Where README.md sends the student to read engine.py: after exercise 5, whose answers (and 3's) its declarations state
+READ_FIRST = {6: "read engine.py top to bottom (README.md maps the chapter's code to it), then "}
 
 
 def start(file: str) -> None:
@@ -71,4 +62,4 @@ def next_line(folder, number: int) -> str:
     if not later:
         return f"Next: that was the last one. python -m exercises shows what is left; then read {READ_ON}."
     n, module, kind = later[0]
-    return f'Next: exercise {n}, "{titles(folder).get(n, module)}": {command(module, kind)}'
+    return f'Next: {READ_FIRST.get(n, "")}exercise {n}, "{titles(folder).get(n, module)}": {command(module, kind)}'

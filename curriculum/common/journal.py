@@ -1,32 +1,16 @@
-"""The journal: every prediction and check a student makes, kept in the checkout, append-only.
+"""The journal, `exercises/journal.jsonl`: every prediction and check, one JSON line each, append-only.
 
-    from curriculum.common import journal
-
-    journal.append(make)      # make(Journal) -> the record to add (or None), under the lock; synced on return
-    journal.load()            # Journal: the records of this checkout's journal, read without the lock
-    journal.read(data)        # Journal from bytes (a submission's): its records, the lines cut off, where an edit is
-
-The predict helper (`predict.ask`, `predict.verdict`) and the checker harness (`student_code.main`) write
-it; no exercise does. It is `exercises/journal.jsonl`, which git does not ignore, so a push carries it.
-One JSON object a line. The first line carries a checkout id, random, made once; every line carries
-`chain`, a hash of the line before it and of its own fields, so a line edited by hand breaks the chain,
-and a journal copied into another checkout shares its lines with the original. Anyone can recompute the
-hashes: the journal says what the exercises saw, for learning, not proctoring.
-
-Writers take turns (flock on the journal itself); a record is one write() at the end of the file, synced
-before the exercise goes on, so two terminals at once lose and repeat nothing. A line cut off by a crash
-is skipped when read, and counted. The file is opened without following a symbolic link. A record holds
-the exercise, the question, the answer as parsed and as typed, the reason given, times and hashes: no user
-name, host name, path or code.
-
-COURSE_JOURNAL=off records nothing; COURSE_JOURNAL=PATH keeps the journal at PATH (the tests do). A journal
-that cannot be written costs one line on stderr, and the exercise runs on.
-"""
+`append(make)` adds make(Journal)'s record under a flock, synced before the exercise goes on; `load()` reads this
+checkout's, `read(data)` a submission's, each line through `valid`, the one schema (a line that fails is counted
+unreadable). The header carries VERSION and a random checkout id; each line a `chain` hash of the one before and
+its own fields: an edit breaks it, a copy shares it (for learning, not proctoring). Never opened through a link,
+nor as another user's file in a sticky folder. COURSE_JOURNAL=off records nothing; COURSE_JOURNAL=PATH moves it."""
 
 import datetime
 import errno
 import hashlib
 import json
+import math
 import os
 import secrets
 import stat
@@ -37,52 +21,87 @@ from pathlib import Path
 from curriculum.common import cli, exercise, interrupts, outputs
 from curriculum.common.exercise import EXERCISES
 
-try:
-    import fcntl
-except ImportError:  # Windows: no flock; each record is still a single append
-    fcntl = None
+fcntl = None if os.name == "nt" else __import__("fcntl")  # Windows: no flock; a record is still one append
 
-DEFAULT = EXERCISES / "journal.jsonl"
-COURSE = EXERCISES.parent  # the chapter's checkout
-SETTING = "COURSE_JOURNAL"
-MAX_BYTES = 4_000_000  # a whole course is a few hundred lines; past this a submission is not a journal
-NOFOLLOW = outputs.NOFOLLOW  # never through a symbolic link
+DEFAULT, COURSE, SETTING = EXERCISES / "journal.jsonl", EXERCISES.parent, "COURSE_JOURNAL"
+VERSION = 1  # the format: a journal of another version is named, never read as this one
+MAX_BYTES = 4_000_000  # a whole course is a few hundred lines; past this a file is not a journal
+MAX_LINE, MAX_TEXT, MAX_ITEMS = 20_000, 2_000, 20
+NOFOLLOW = outputs.NOFOLLOW
 NOTE = "Written by the exercises, one line per prediction or check. Do not edit: an edit breaks the chain."
+ANSWER, PARTS = "a name, a number, a list of names or a value per name", "{function: solved}"
+FIELDS = {"journal": {"version": int, "note": str, "checkout": str}, "asked": {"ex": int, "question": str},
+          "predict": {"ex": int, "question": str, "answer": ANSWER, "typed": str, "because": str, "attempt": int},
+          "replay": {"ex": int, "question": str, "prediction": str},
+          "marks": {"ex": int, "prediction": str, "right": int, "items": int},
+          "check": {"ex": int, "solved": bool, "parts": PARTS, "sha256": str, "own": bool}, "reset": {"ex": int}}
+
+
+def valid(record) -> bool:
+    """The schema every reader applies to a line: a kind the exercises write, exactly its fields (with `chain`, and
+    `t` but on the header), each of its type; texts valid Unicode and short, few items."""
+    fields = FIELDS.get(record.get("kind")) if isinstance(record, dict) else None
+    fields = fields and {"kind": str, "chain": str, **({} if record["kind"] == "journal" else {"t": str}), **fields}
+    return bool(fields) and set(fields) - {"version"} <= set(record) <= set(fields) and all(  # no version: older
+        _fits(v, fields[n]) for n, v in record.items())
+
+
+def _fits(value, kind) -> bool:
+    if kind in (str, int, bool):
+        return type(value) is kind and (len(value) <= MAX_TEXT and value == value.encode(errors="replace").decode()
+                                        if kind is str else kind is bool or abs(value) < 10**9)
+    if isinstance(value, (list, dict)) and len(value) > MAX_ITEMS:
+        return False
+    if kind == PARTS:
+        return isinstance(value, dict) and all(_fits(k, str) and type(v) is bool for k, v in value.items())
+    if isinstance(value, list):
+        return all(_fits(v, str) for v in value)
+    if isinstance(value, dict):
+        return all(_fits(k, str) and _fits(v, ANSWER) and not isinstance(v, (list, dict)) for k, v in value.items())
+    return _fits(value, str) or _fits(value, int) or type(value) is float and math.isfinite(value)
 
 
 @dataclass
 class Journal:
-    records: list = field(default_factory=list)  # the lines that read as records, the header first
-    cut: int = 0  # lines skipped: cut off by a crash, or not a record
-    edited: int | None = None  # the first line (1 = the header) whose chain does not follow from the one before
-    problem: str | None = None  # why the journal could not be read, if it could not
+    records: list = field(default_factory=list)  # the lines that are valid(), in order, the header first
+    unreadable: int = 0  # lines that do not: cut off by a crash, edited into nonsense, or not of this format
+    edited: int | None = None  # the first record (1 = the header) whose chain does not follow from the one before
+    trouble: str | None = None  # why the file could not be read at all, if it could not
 
     def of(self, number: int, everything: bool = False) -> list:
         """Exercise `number`'s records, from its last reset on (everything: from the start, the grader's view)."""
         mine = [r for r in self.records if r.get("ex") == number]
-        resets = [i for i, r in enumerate(mine) if r.get("kind") == "reset"]
+        resets = [i for i, r in enumerate(mine) if r["kind"] == "reset"]
         return mine if everything or not resets else mine[resets[-1] + 1:]
 
-
-def where() -> Path | None:
-    """The journal's path, or None when recording is off."""
-    setting = os.environ.get(SETTING, "")
-    if setting.strip().lower() == "off":
-        return None
-    return Path(setting) if setting else DEFAULT
-
-
-def shown(path: Path) -> str:
-    """The journal's path as a message shows it: from the checkout if it is inside, escaped (cli.shown)."""
-    return cli.shown(path.relative_to(COURSE) if path.is_relative_to(COURSE) else path, 100)
+    def notes(self) -> list:
+        """What is wrong with it, each in the words the board, the hand-in and the grader all use."""
+        header = self.records[0] if self.records and self.records[0]["kind"] == "journal" else {"version": VERSION}
+        version = header.get("version", "from before versions")
+        return [n for n in [self.trouble, self.unreadable and f"{self.unreadable} unreadable line(s) (cut off by a"
+                            " crash, edited, or not of this format), skipped",
+                            self.edited and f"edited by hand: line {self.edited} does not follow from the one before",
+                            version not in (None, VERSION) and f"journal format {version}; this course reads"
+                            f" {VERSION}"] if n]
 
 
-def when(stamp) -> str:
-    """A record's time as people read it: 'Tue 25 Nov 10:02'."""
-    try:
-        return datetime.datetime.fromisoformat(stamp).strftime("%a %d %b %H:%M")
-    except (TypeError, ValueError):
-        return "at a time that does not read"
+def read(data: bytes) -> Journal:
+    book, before = Journal(), ""
+    for line in data.split(b"\n"):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line) if len(line) <= MAX_LINE else None
+        except (ValueError, RecursionError):  # UnicodeDecodeError too; RecursionError: nested past any record
+            record = None
+        if not valid(record):
+            book.unreadable += 1
+            continue
+        if book.edited is None and record["chain"] != chained(before, record):
+            book.edited = len(book.records) + 1
+        book.records.append(record)
+        before = record["chain"]
+    return book
 
 
 def chained(before: str, record: dict) -> str:
@@ -90,116 +109,101 @@ def chained(before: str, record: dict) -> str:
     return hashlib.sha256(f"{before}\n{fields}".encode()).hexdigest()[:16]
 
 
-def read(data: bytes) -> Journal:
-    journal, before = Journal(), ""
-    for line in data.split(b"\n"):
-        if not line.strip():
-            continue
-        try:
-            record = json.loads(line)
-        except ValueError:  # UnicodeDecodeError too
-            record = None
-        if not isinstance(record, dict):
-            journal.cut += 1
-            continue
-        if journal.edited is None and record.get("chain") != chained(before, record):
-            journal.edited = len(journal.records) + 1
-        journal.records.append(record)
-        before = str(record.get("chain"))
-    return journal
+def where() -> Path | None:  # None: recording is off
+    setting = os.environ.get(SETTING, "")
+    return None if setting.strip().lower() == "off" else Path(setting or DEFAULT)
+
+
+def shown(path: Path) -> str:  # escaped, from the checkout if inside it
+    return cli.shown(path.relative_to(COURSE) if path.is_relative_to(COURSE) else path, 100)
+
+
+def when(stamp) -> str:  # 'Tue 25 Nov 10:02'
+    try:
+        return datetime.datetime.fromisoformat(stamp).strftime("%a %d %b %H:%M")
+    except (TypeError, ValueError):
+        return "at a time that does not read"
+
+
+def planted(path: Path) -> str | None:
+    """Why `path` must not be used: another user's file in a sticky folder everyone may write to (/tmp), which the
+    kernel's protected_regular refuses, root included. None if it may be."""
+    try:
+        here, there = os.stat(path.parent), os.lstat(path)
+    except OSError:
+        return None
+    if here.st_mode & stat.S_ISVTX and here.st_mode & stat.S_IWOTH and there.st_uid not in (os.geteuid(), here.st_uid):
+        return f"{shown(path)} belongs to another user in a sticky folder (like /tmp): it is not used"
+    return None
+
+
+def _open(path: Path, flags: int) -> int:
+    if planted(path):
+        raise OSError(errno.EPERM, "another user's file in a sticky folder (like /tmp), never used")
+    return os.open(path, flags | os.O_NONBLOCK | NOFOLLOW, 0o644)
 
 
 def load() -> Journal:
-    """This checkout's journal as it is now (empty if there is none, it cannot be read, or recording is off)."""
+    """This checkout's journal as it is now (empty if there is none or recording is off)."""
     path = where()
     if path is None or not os.path.lexists(path):
         return Journal()
     try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | NOFOLLOW)
+        fd = _open(path, os.O_RDONLY)
         try:
-            if fcntl:
-                fcntl.flock(fd, fcntl.LOCK_SH)  # never half a writer's line
+            fcntl and fcntl.flock(fd, fcntl.LOCK_SH)  # never half a writer's line
             return read(_contents(fd))
         finally:
             os.close(fd)
     except OSError as error:
-        return Journal(problem=f"{shown(path)} cannot be read: {_why(error)}")
+        return Journal(trouble=f"{shown(path)} cannot be read: {_why(error)}")
 
 
 def append(make, kept: str | None = None) -> dict | None:
     """Add the record make(journal) returns (None: nothing to add), with its time and chain, and the header first
-    if the journal is new. On disk (synced) when this returns it; None if recording is off or failed. `kept`
-    joins what every one-line message of this run says was kept (outputs.KEPT), in the same instant: a Ctrl-C
-    waits for the record to be whole and said."""
-    path = where()
+    if the journal is new. On disk (synced) when this returns it; None if recording is off or failed (one line on
+    stderr says so). `kept` joins what a Ctrl-C's line says was kept (outputs.KEPT), in the same instant."""
+    path, fd = where(), None
     if path is None:
         return None
     try:
-        fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT | NOFOLLOW, 0o644)
-    except OSError as error:
-        return _cannot(path, error)
-    try:
-        if fcntl:
-            fcntl.flock(fd, fcntl.LOCK_EX)  # writers take turns; released when fd closes
+        fd = _open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT)
+        fcntl and fcntl.flock(fd, fcntl.LOCK_EX)  # writers take turns; released when fd closes
         data = _contents(fd)
-        journal = read(data)
-        record = make(journal)
+        book = read(data)
+        record = make(book)
         if record is None:
             return None
         record = {**record, "t": datetime.datetime.now().astimezone().isoformat(timespec="seconds")}
-        header = [] if journal.records else [{"kind": "journal", "note": NOTE, "checkout": secrets.token_hex(16)}]
-        before, lines = str(journal.records[-1].get("chain")) if journal.records else "", []
+        header = [] if book.records else [{"kind": "journal", "version": VERSION, "note": NOTE,
+                                           "checkout": secrets.token_hex(16)}]
+        before, lines = book.records[-1]["chain"] if book.records else "", []
         for item in [*header, record]:
             item["chain"] = before = chained(before, item)
             lines.append(json.dumps(item) + "\n")
-        cut_off = "\n" if data and not data.endswith(b"\n") else ""  # a line a crash cut off stays a line apart
-        out = (cut_off + "".join(lines)).encode()
-        with outputs.signals_held():  # the same hold as a run's own files: Ctrl-C waits, then is said
+        out = (("\n" if data and not data.endswith(b"\n") else "") + "".join(lines)).encode()  # a cut line stays apart
+        with outputs.signals_held():  # Ctrl-C waits for the whole record, then is said
             while out:  # one write() in practice; the lock keeps any remainder next to it
                 out = out[os.write(fd, out):]
             os.fsync(fd)
-            if header:
-                _sync_folder(path.parent)  # the new file's name is on disk too, not only its bytes
-            if kept:
-                outputs.KEPT.append(kept)
+            outputs.KEPT.extend([kept] if kept else [])
         return record
     except OSError as error:
-        return _cannot(path, error)
+        print(f"note: nothing was recorded in the journal ({shown(path)}: {_why(error)})", file=sys.stderr)
+        return None
     finally:
-        os.close(fd)
+        if fd is not None:
+            os.close(fd)
 
 
 def _contents(fd: int) -> bytes:
-    """The whole file (at most MAX_BYTES), if it is a regular file: never a FIFO or a device left in its place."""
+    """The whole file, if it is a regular file of at most MAX_BYTES: never a FIFO, a device or a folder."""
     info = os.fstat(fd)
     if not stat.S_ISREG(info.st_mode):
         raise OSError(errno.EINVAL, "it is not a regular file")
     if info.st_size > MAX_BYTES:
         raise OSError(errno.EFBIG, f"it is over {MAX_BYTES // 1_000_000} MB, more than a journal ever holds")
-    os.lseek(fd, 0, os.SEEK_SET)  # (appends still go to the end: O_APPEND)
-    chunks = []
-    while chunk := os.read(fd, 1 << 20):
-        chunks.append(chunk)
-    return b"".join(chunks)
-
-
-def _sync_folder(folder: Path) -> None:
-    try:
-        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
-def _cannot(path: Path, error: OSError) -> None:
-    print(f"note: this run is not recorded in the journal ({shown(path)}: {_why(error)}); the exercise runs on as"
-          " usual", file=sys.stderr)
-    return None
+    return os.pread(fd, MAX_BYTES + 1, 0)
 
 
 def _why(error: OSError) -> str:
@@ -208,23 +212,71 @@ def _why(error: OSError) -> str:
 
 def checked(default: Path, path: Path, parts: dict) -> None:
     """The checker harness's record of one check (solved or not, which parts, the file's hash, whether it is the
-    exercise's own file or another one), then its run's last line. `default` is the exercise's own file, which
-    says which exercise this is."""
+    exercise's own file), then its run's last line: the board's Next line once solved, else this checker again."""
     number = int(exercise.EXERCISE_FILE.fullmatch(default.name).group(1))
     digest = hashlib.sha256(own_file(Path(path)) or b"").hexdigest()
     append(lambda book: {"kind": "check", "ex": number, "solved": bool(parts) and all(parts.values()),
                          "parts": parts, "sha256": digest, "own": Path(path).resolve() == Path(default).resolve()})
-    if interrupts.active():  # solved: on to the next exercise; not yet: this checker again, on the same file
+    if interrupts.active():
         file = "" if Path(path) == Path(default) else f" {cli.shown(path, 100)}"
-        again = f"python -m exercises.check_ex{number}{file}"
-        print(exercise.next_line(EXERCISES, number) if all(parts.values()) and parts else f"Next: {again}")
+        again = f"Next: python -m exercises.check_ex{number}{file}"
+        print(next_line(number) if parts and all(parts.values()) else again)
+
+
+# --- what the board shows of an exercise, and what comes next ---
+
+
+def next_line(number: int | None, book=None, found=None) -> str:
+    """The board's Next line, which every exercise's and the checker's run ends with too: the first exercise not
+    done (with the journal empty or off, the one after `number`)."""
+    book, found = book or load(), found or exercise.exercises(EXERCISES)
+    if number is not None and not book.records:  # recording off or failing: the board knows nothing
+        return exercise.next_line(EXERCISES, number)
+    waiting = [command for n, module, kind in found for _, done, command in [status(book, n, module, kind)]
+               if not done]
+    return f"Next: {waiting[0]}" if waiting else f"Next: read {exercise.READ_ON}."
+
+
+def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
+    """(what the board says of an exercise, whether it is done, its next command). A prediction exercise shows
+    the first prediction the grade counts (made before any reset too); a code exercise its last check."""
+    since, command = book.of(number), exercise.command(module, kind)
+    if kind == "code":
+        checks = [r for r in since if r["kind"] == "check" and r["own"]]  # not a scratch file's
+        if not checks:
+            return "not tried", False, command
+        last = checks[-1]
+        if last["solved"]:
+            same = last["sha256"] == hashlib.sha256(own_file(EXERCISES / f"{module}.py") or b"").hexdigest()
+            return f"solved {when(last['t'])}" + ("" if same else ", but the file has changed since"), same, \
+                command
+        parts = ", ".join(f"{cli.shown(name)} {'solved' if ok else 'not yet'}" for name, ok in last["parts"].items())
+        return f"checked {when(last['t'])}: {parts or 'it does not run yet'}", False, command
+    every = book.of(number, everything=True)
+    predictions = [r for r in every if r["kind"] == "predict"]
+    if any(r["kind"] == "predict" for r in since):  # done since the last reset; the grade counts the first ever
+        first = predictions[0]
+        marks = next((r for r in every if r["kind"] == "marks" and r["prediction"] == first["chain"]), None)
+        tries = sum(r["question"] == first["question"] for r in predictions)
+        question = f" ({cli.shown(first['question'])})" if first["question"] else ""
+        return (f"predicted {when(first['t'])}{question}"
+                + (f": {marks['right']} of {marks['items']} right" if marks else ": not measured yet")
+                + (f", {tries} attempts" if tries > 1 else "")
+                + ("; the grade counts this first one, from before your reset" if first not in since else ""),
+                True, "")
+    if any(r["kind"] == "asked" for r in since):
+        return "asked", False, f"python -m exercises.{module} --predict ANSWER"
+    return "not tried", False, command
 
 
 def own_file(path: Path) -> bytes | None:
-    """A file of the checkout, never through a symbolic link; None if it is not there."""
+    """A file of the checkout, never through a symbolic link; None if it is not a regular file. At most
+    MAX_BYTES + 1 bytes are read: a caller sees a file past MAX_BYTES by its length."""
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | NOFOLLOW)
     except OSError:
         return None
-    with os.fdopen(fd, "rb") as file:
-        return file.read() if stat.S_ISREG(os.fstat(fd).st_mode) else None
+    try:
+        return os.pread(fd, MAX_BYTES + 1, 0) if stat.S_ISREG(os.fstat(fd).st_mode) else None
+    finally:
+        os.close(fd)

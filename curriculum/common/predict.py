@@ -1,44 +1,29 @@
 """Predict-then-run, shared by every predict-then-run exercise: no figure before a committed answer.
 
-How an exercise uses it (ex4_long_run.py is a short example):
-
-    parser = OneLineParser(prog="exercises.ex5_something", description=__doc__, ...)  # curriculum.common.cli
     prediction = ask(parser, "The question, ending in a question mark?", OneOf(["a", "b"]), argv)
-    ...measure, with no output before this line...
+    ...measure, printing nothing before this point...
     verdict(answer, f"it is {answer}")   # "Right: it is a." / "Not quite: you said b, but it is a."
     explain("The lesson, naming the one figure that matters.", more=lambda: ["- the full story ...", ...])
 
-- `ask` adds `--predict` to the parser. Run bare, the exercise prints the question, the accepted
-  answers and how to commit (four lines, no figure) and exits 0: asking is not an error. A
-  prediction that does not parse gets one line on stderr that lists the accepted forms, and exit 2.
-  Otherwise it returns the parsed prediction.
-- One parser reads every exercise's predictions the way people type them, in time linear in what was
-  typed (a megabyte of spaces is refused at once), and a refusal quotes at most 40 characters of it:
-  `OneOf` (one name: any case, '-' or ' ' for '_', and the names people use: 'backward Euler' is
-  implicit), `Number` (`10000`, `10,000`, `10_000`, `10 000`, `1e4`, `10k`; `1.000` reads two ways and
-  says so), `PerName` (`euler=8, rk4=1`: any spacing and order, ':' for '=', commas, semicolons or
-  just spaces between items; values numbers or words) and `SomeOf` (`rk4, implicit`, `RK4 and
-  implicit Euler`, `none`, `all`). Each has `.forms`, the sentence a refusal prints.
-- `verdict` and `explain` are the one place that prints the grade and the explanation, after the
-  measurement. Keep measured answers out of the module docstring, --help and the question:
-  tests/test_docs.py reads them for leaks.
-- Short answers first: `ask` adds `--more` too. `explain(lesson, more=function)` prints the lesson (at
-  most 120 words, naming the one figure that matters; tests/test_docs.py counts) and a line that says
-  `--more` tells the rest. Under `--more` it then calls `function()`, which prints any further table and
-  returns the full explanation's lines, so what only the full story needs is measured only when asked
-  for, in the same run. The "Next:" line follows either way.
-- The journal (curriculum.common.journal) is written here, so no exercise records anything itself: `ask`
-  records the prediction (with `--because`'s reason) before it returns, so before any figure; a bare run
-  records that the question was asked, or shows what was committed and when. `verdict` records how many
-  items were right. The first prediction of a question counts: a different answer later is the next
-  attempt, and the same one again a replay. A run that measured ends with the line
-  `curriculum.common.exercise.next_line` gives: the next exercise's command.
+- `ask` adds --predict, --because and --more. Run bare, it prints the question and how to commit (no figure)
+  and exits 0; an answer that does not parse gets one line listing the accepted forms, and exit 2. It records
+  the prediction in the journal (curriculum.common.journal) before it returns: the first prediction of a
+  question counts, a different one later is the next attempt, the same one again a replay.
+- The answers are read as people type them, in time linear in the text, quoting at most 40 characters of it:
+  `OneOf` (one name, any case, '-' or ' ' for '_', aliases such as 'backward Euler'), `Number` (10000,
+  10,000, 10_000, 10 000, 1e4, 10k; 1.000 reads two ways and says so), `PerName` ('euler=8, rk4=1': any
+  order and spacing) and `SomeOf` ('rk4, implicit', 'none', 'all'). Each has `.forms`, what a refusal prints.
+- `verdict` prints the grade and records how many items were right; `explain(lesson, more=function)` prints
+  the lesson (at most 120 words: tests/test_prose.py counts) and says that --more tells the rest; under
+  --more, `function()` prints any further table and returns the full explanation's lines. A run that measured
+  ends with `curriculum.common.exercise.next_line`. Keep measured answers out of the docstring, --help and
+  the question: tests/test_docs.py reads them for leaks.
 """
 
 import argparse
 import atexit
 import contextlib
-import math
+import decimal
 import re
 import sys
 import textwrap
@@ -46,10 +31,9 @@ from pathlib import Path
 
 from curriculum.common import interrupts, journal
 from curriculum.common.cli import shown
-from curriculum.common.exercise import EXERCISE_FILE, EXERCISES, next_line
+from curriculum.common.exercise import EXERCISE_FILE
 
-# What people call the integrators and the answers, as the chapter, MuJoCo and textbooks write them; keys and
-# values are compared without case, spaces, '_' or '-' (see _name_key), so "Backward Euler" is backwardeuler.
+# What people call the integrators and the answers, compared without case, spaces, '_' or '-' (_name_key).
 ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler",
            "symplecticeuler": "semiimplicit", "semiimpliciteuler": "semiimplicit", "symplectic": "semiimplicit",
            "impliciteuler": "implicit", "backwardeuler": "implicit",
@@ -59,6 +43,7 @@ ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler",
            "growswiththerun": "grows", "growwiththerun": "grows", "unbounded": "grows"}
 LONGEST_NAME = 4  # words: "classical runge kutta 4"
 SEPARATORS = ",;"  # between the items of a list; within an item, spaces
+SPELLED = {2: "two", 3: "three", 4: "four", 5: "five"}  # 'all four'
 
 
 class TwoReadings(ValueError):
@@ -73,10 +58,8 @@ class OneOf:
         spelling = "; '-' or a space may stand for '_'" if any("_" in name for name in self.names) else ""
         self.forms = f"one of {', '.join(self.names)} (any case{spelling})"
 
-    def find(self, text: str) -> str | None:
-        """The name `text` means, or None."""
-        key = _name_key(text)
-        key = ALIASES.get(key, key)
+    def find(self, text: str) -> str | None:  # the name `text` means, or None
+        key = ALIASES.get(_name_key(text), _name_key(text))
         return next((name for name in self.names if _name_key(name) == key), None)
 
     def parse(self, text: str) -> str:
@@ -99,15 +82,10 @@ class Number:
         words = text.split()
         if self.unit and len(words) > 1 and words[-1].lower() in (self.unit, f"{self.unit}s"):
             words = words[:-1]  # '1000 orbits' is 1000 orbits
-        try:
-            value = _number(" ".join(words))
-        except TwoReadings:
-            raise  # it says why
-        except ValueError:
-            value = None
+        value = _number(" ".join(words))  # TwoReadings says why
         if value not in self.choices:
             raise ValueError(f"{_shown(text)} is not {self.forms}")
-        return value
+        return int(value)
 
 
 class PerName:
@@ -119,8 +97,9 @@ class PerName:
         self.words = OneOf(self.values) if all(isinstance(v, str) for v in self.values) else None
         what = "word" if self.words else "value"
         self.choices = ", ".join(str(v) if self.words else f"{v:g}" for v in self.values)
+        like = ", ".join(f"{name}={letter}" for name, letter in zip(self.names.names, "ABCDEFGH", strict=False))
         self.forms = (f"name={what} for each of {', '.join(self.names.names)}, separated by commas,"
-                      f" each {what} one of {self.choices} ({template(self.names.names, what)})")
+                      f" each {what} one of {self.choices} (like {like}, with your {what} for each letter)")
 
     def parse(self, text: str) -> dict:
         prediction = {}
@@ -149,13 +128,11 @@ class PerName:
         else:
             try:
                 value = _number(text)
-            except ValueError as problem:
-                if isinstance(problem, TwoReadings):
-                    raise ValueError(f"in {item}, {problem}") from None
-                value = None
+            except TwoReadings as problem:
+                raise ValueError(f"in {item}, {problem}") from None
         if value not in self.values:
             raise ValueError(f"in {item}, {_shown(text, quoted=False)} is not one of {self.choices}")
-        return value
+        return value if self.words else int(value)
 
 
 class SomeOf:
@@ -167,12 +144,10 @@ class SomeOf:
         self.forms = f"{chosen}, from {', '.join(self.names.names)}, separated by commas (or 'none', or 'all')"
 
     def parse(self, text: str) -> frozenset:
-        words = [word.lower() for word in _words(text) if word.lower() != "and"]
-        if words in (["none"], ["none", "of", "them"]):
-            return frozenset()
-        count = len(self.names.names)
-        if words[:1] == ["all"] and words[1:] in ([], ["of", "them"], [str(count)], [_spelled(count)]):
-            return frozenset(self.names.names)
+        words = [word for word in re.split(r"[\s,;+]+", text.lower()) if word not in ("", "and")]  # one pass
+        count = len(self.names.names)  # 'none', 'none of them', 'all', 'all of them', 'all four', 'all 4'
+        if words[:1] in (["none"], ["all"]) and words[1:] in ([], ["of", "them"], [str(count)], [SPELLED.get(count)]):
+            return frozenset(self.names.names if words[0] == "all" else ())
         if not words:
             raise ValueError(f"the answer is empty: answer with {self.forms}")
         chosen, at = [], 0
@@ -191,23 +166,12 @@ class SomeOf:
         return frozenset(chosen)
 
 
-def template(names, what: str = "value") -> str:
-    """The shape of a per-name answer: 'like euler=A, semi_implicit=B, rk4=C, with your value for each letter'."""
-    letters = "ABCDEFGH"[: len(names)]
-    return f"like {', '.join(f'{name}={letter}' for name, letter in zip(names, letters, strict=True))}," \
-           f" with your {what} for each letter"
-
-
 def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, variant=None, check=None):
-    """Parse argv and return the parsed prediction, recorded in the journal first; without --predict, ask the
-    question (or show what was committed, and when) and exit 0.
+    """The parsed prediction, recorded first; without --predict, the question (or what was committed) and exit 0.
 
-    `answers` is OneOf, Number, PerName or SomeOf (anything with .parse(text) and .forms). The extra
-    arguments an exercise adds to `parser` are in `parser.parsed`, the argparse namespace. `variant` names
-    the one among them that makes another question of it (exercise 3's "system"): each of its values is a
-    question of its own in the journal. `check(args)` says why the other arguments cannot be used, or None;
-    it runs before the prediction is recorded, so bad input exits 2 with nothing recorded.
-    """
+    `answers` has .parse(text) and .forms; the exercise's own arguments end up in `parser.parsed`. `variant` names
+    the one whose every value is a question of its own (exercise 3's "system"); `check(args)` says why the other
+    arguments cannot be used, or None, before anything is recorded."""
     # nargs="+": `--predict euler=8, rk4=1` reaches us as several words; they are one answer
     parser.add_argument("--predict", metavar="ANSWER", nargs="+", action="extend",  # given twice: both count
                         help=f"your prediction: {answers.forms}")
@@ -248,8 +212,7 @@ _asked = {}  # what ask() asked, returned and recorded, for verdict() and explai
 
 
 def asked() -> dict:
-    """What the last ask() asked: {"question": text, "answers": OneOf, Number, PerName or SomeOf, ...}. A bare
-    run asks and exits, so tests/test_docs.py reads each exercise's own answer form here."""
+    """What the last ask() asked: {"question": text, "answers": its parser, ...} (tests/test_docs.py reads it)."""
     return dict(_asked)
 
 
@@ -281,8 +244,8 @@ def said(prediction, answers) -> str:
 
 
 def record(number: int | None, asked: str, prediction, args) -> dict:
-    """The prediction in the journal, synced before any figure: a new answer is the next attempt at the question,
-    the same answer again a replay of the attempt it repeats. Returns {prediction id, note for verdict()}."""
+    """The prediction in the journal before any figure (a new answer the next attempt, the same one a replay):
+    {prediction id, note for verdict()}."""
     answer = sorted(prediction) if isinstance(prediction, frozenset) else prediction
     found = {}
 
@@ -299,6 +262,8 @@ def record(number: int | None, asked: str, prediction, args) -> dict:
     kept = f"your prediction is recorded in {journal.shown(journal.where() or Path())}"
     written = journal.append(make, kept) if number is not None else None
     if written is None:
+        if number is not None and journal.where() is None and sys.stderr.isatty():  # to the student, as progress is
+            print(f"note: recording is off ({journal.SETTING}=off): this prediction is not recorded", file=sys.stderr)
         return {"id": None, "note": ""}
     same, first = found["same"], found["first"]
     if same:
@@ -312,7 +277,7 @@ def record(number: int | None, asked: str, prediction, args) -> dict:
 def _say_next(number: int) -> None:
     if interrupts.exit_code() == 0:
         with contextlib.suppress(OSError, ValueError):  # stdout closed: the guard says so, once
-            print(next_line(EXERCISES, number), flush=True)
+            print(journal.next_line(number), flush=True)  # the board's: the first exercise not done
 
 
 def how_it_was_run(module: str) -> str:
@@ -325,12 +290,8 @@ def how_it_was_run(module: str) -> str:
 
 
 def verdict(truth, answer: str | None = None) -> None:
-    """The grade of what ask() returned, one line: 'Right: it is euler.' or 'Not quite: you said rk4, but it is euler.'
-
-    `truth` has the prediction's form (a value per name, a set of names, a name, a number); `answer` says
-    it in words ('it is euler'; for a value per name the default reads 'euler grows, rk4 stays'). How many
-    items were right goes to the journal, and a later attempt is told which prediction counts.
-    """
+    """'Right: it is euler.' or 'Not quite: you said rk4, but it is euler.', and the marks in the journal. `truth`
+    has the prediction's form; `answer` says it in words (by default 'euler grows, rk4 stays')."""
     prediction = _asked["prediction"]
     answer = answer or ", ".join(f"{name} {value}" for name, value in truth.items())
     print(f"Right: {answer}." if prediction == truth else f"Not quite: you said {_asked['said']}, but {answer}.")
@@ -348,13 +309,8 @@ MORE = "The same command with --more explains every figure."
 
 
 def explain(*lines: str, more=None, width: int = 100) -> None:
-    """Print the explanation, each line wrapped for a terminal; a line starting with '- ' is a bullet, one
-    starting with four spaces is code, printed as it is.
-
-    With `more`, the lines are the lesson: run with --more, `more()` then prints any further table and
-    returns the full explanation's lines, printed after a blank line; run without, one line says so (MORE).
-    `more` is a function so that what only the full explanation needs is measured only when it is wanted.
-    """
+    """Print the lines wrapped ('- ' a bullet, four spaces code, as it is). With `more`, they are the lesson:
+    under --more, more()'s lines follow (measured only then); without, MORE says they exist."""
     for line in lines:
         indent = "  " if line.startswith("- ") else ""
         code = line.startswith("    ")
@@ -381,21 +337,9 @@ def _shown(text: str, limit: int = 40, quoted: bool = True) -> str:
     return repr(text) if quoted else shown(text, None)  # repr escapes; unquoted, shown() does
 
 
-def _spelled(n: int) -> str:
-    return {2: "two", 3: "three", 4: "four", 5: "five"}.get(n, str(n))
-
-
-def _words(text: str) -> list:
-    """The words of an answer: split at spaces, commas, semicolons and '+'. One pass over the text."""
-    for separator in SEPARATORS + "+":
-        text = text.replace(separator, " ")
-    return text.split()
-
-
 def _pairs(text: str, forms: str):
-    """(name text, value text) for each item of 'euler=8, semi implicit: 4 rk4=1', one at a time (a refusal
-    comes at the first bad item, however long the rest). Split at every '=' or ':'; between two of them
-    sits one value, then (after a comma, a semicolon or a space) the next name."""
+    """(name text, value text) for each item of 'euler=8, semi implicit: 4 rk4=1', one at a time: split at '='
+    or ':', between two of them a value, then (after a comma, a semicolon or a space) the next name."""
     pieces = re.split(r"[=:]", text)  # a character class, no repetition: linear in the text
     if len(pieces) == 1:
         if not text.strip(" ,;\t\n"):
@@ -420,30 +364,21 @@ def _value_then_name(text: str) -> tuple[str, str]:
     """'8, semi implicit ' -> ('8', 'semi implicit'): the value ends at the first comma or semicolon, or else
     at the first space after it."""
     stripped = text.strip()
-    for at, ch in enumerate(stripped):
-        if ch in SEPARATORS:
-            return stripped[:at], stripped[at + 1:]
-    value, _, name = stripped.partition(" ")
-    return value, name
+    parts = re.split(r"[,;]", stripped, maxsplit=1)
+    return tuple(parts) if len(parts) == 2 else stripped.partition(" ")[::2]
 
 
-def _number(text: str) -> int:
-    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' / '10k' -> 10000; ValueError if not a whole number.
-
-    TwoReadings for '1.000' and '10.000', which is ten thousand in much of Europe and ten here."""
-    shown = _shown(text)
+def _number(text: str):
+    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' / '10k' -> 10000 (a Decimal), None if no whole number;
+    TwoReadings for '1.000' (a thousand in much of Europe, one here)."""
     text = " ".join(text.split()).lower()
     if re.fullmatch(r"\d{1,3}(?:\.\d{3})+", text):  # fixed-width groups: linear
-        raise TwoReadings(f"{shown} could be read two ways: write it without the dot")
-    if re.fullmatch(r"\d{1,3}(?:[,_ ]\d{3})+", text):  # 10,000 / 10_000 / 10 000
-        text = text.replace(",", "").replace("_", "").replace(" ", "")
-    scale = 1
-    if text.endswith("k") and len(text) > 1:  # 10k: ten thousand
-        text, scale = text[:-1].strip(), 1000
+        raise TwoReadings(f"{_shown(text)} could be read two ways: write it without the dot")
+    if re.fullmatch(r"\d{1,3}(?: \d{3})+", text):  # 10 000
+        text = text.replace(" ", "")
+    scale = 1000 if text.endswith("k") and len(text) > 1 else 1  # 10k: ten thousand
     try:
-        value = float(text) * scale
-    except ValueError:
-        raise ValueError(f"{shown} is not a number") from None
-    if not math.isfinite(value) or value != int(value):
-        raise ValueError(f"{shown} is not a whole number")
-    return int(value)
+        number = decimal.Decimal((text[:-1] if scale > 1 else text).replace("_", "").replace(",", "").strip())
+    except decimal.InvalidOperation:
+        return None
+    return number * scale if number.is_finite() and number == number.to_integral_value() else None

@@ -1,10 +1,5 @@
-"""The course's recordings: one colour-blind-safe palette, and one way every recording opens.
-
-Every .rrd the course writes (engine.py's, every exercise's) takes its colours and its opening from here,
-so a student meets the same colours for the same integrators, and every file opens the same way: the
-whole run, the time cursor on the last step, the side panels closed, every shape and curve framed.
-
-A recording in a few lines (a time series per name; exercise 7's shape):
+"""The course's recordings: one colour-blind-safe palette, and one way every recording opens (the whole run, the
+cursor on the last step, side panels closed, every shape and curve framed). A recording, exercise 7's shape:
 
     from curriculum.common import recording as course
 
@@ -15,31 +10,10 @@ A recording in a few lines (a time series per name; exercise 7's shape):
 
     data = course.recorded("zero2robot-ch3_3-ex7", fill)      # the .rrd bytes; write them with write_atomic
 
-- `looks(names)`: each name's colour and label. The integrators have theirs (COLOURS, LABELS); any other
-  name takes the next spare palette colour and is labelled with itself.
-- `log_series(stream, entity, steps, values, look, width=None)`: one line on the `step` timeline, in its
-  colour, named in the legend; non-finite values are left out. Returns the values it logged.
-- `time_series(origin, name, last_step, values, legend="RightBottom")`: a plot of everything under
-  `origin`, opening on steps 0..last_step (and a little past, so the last step's number shows on the axis),
-  its y range fitted to `values` (what log_series returned). `layered_widths` lets lines that lie on one
-  another all show.
-- `from_above(origin, name, paths)`: a flat plot drawn in a 3D view seen from straight above (Rerun's 2D
-  views point y down), its camera framing every drawable point of `paths`. Frame it on what stays bounded:
-  `near(reference, runs)` keeps the runs that stay within REACH times the reference's size (the exact
-  motion's); the others are seen leaving. `log_axes` draws its axes, named past their tips; `log_key` a
-  key of coloured dots and labels beside the paths (frame it too).
-- `opening(story, last_step)`: the Blueprint to send: `story` (a view, a list of views to stack, or an
-  rrb.Horizontal/Vertical/Grid of views) with the panels closed and the cursor on the last step; play
-  replays the run in about 20 s.
-- `recorded(application_id, fill, recording_id=None)`: builds the recording in memory, sends the
-  blueprint `fill(stream)` returns, and gives back the bytes; a Ctrl-C or SIGTERM meanwhile waits
-  until the stream is drained, so Rerun has nothing left to drop (and warn about) while the process exits.
-
-The palette is Okabe and Ito's colour-universal set (Color Universal Design). The four integrators' colours stay more
-than 20 apart in CAM02-UCS from one another and from the viewer's background, for normal vision and for
-simulated deuteranopia, protanopia and tritanopia at full severity (tests/test_palette.py measures it).
-The chapter's key pair, explicit and semi-implicit Euler, is vermillion against sky blue: never red
-against green. Importing this module loads nothing heavy; Rerun loads when a function needs it.
+The palette is Okabe and Ito's colour-universal set: the integrators' colours stay more than 20 apart in CAM02-UCS
+from one another and from the background, for normal vision and simulated deuteranopia, protanopia and tritanopia
+(tests/test_palette.py); explicit and semi-implicit Euler are vermillion against sky blue, never red against green.
+Importing this module loads nothing heavy; Rerun loads when a function needs it.
 """
 
 import math
@@ -82,10 +56,8 @@ def looks(names) -> dict:
 
 
 def opening(story, last_step: int, timeline: str = "step"):
-    """The Blueprint every course recording opens with: `story` (a view, a list of views to stack, or an
-    rrb.Horizontal/Vertical/Grid of them) fills the window, the side panels are closed, and the time
-    cursor sits on the last step (play state "following"): every body where its run ended, every plot
-    whole. Pause, then play, and the viewer starts again from step 0 and takes about PLAYBACK_SECONDS."""
+    """The Blueprint every course recording opens with: `story` (a view, a list of views to stack, or an rrb layout)
+    fills the window, side panels closed, the cursor on the last step; play replays the run in PLAYBACK_SECONDS."""
     import rerun.blueprint as rrb
 
     if isinstance(story, list | tuple):  # several views: one under the other
@@ -130,11 +102,9 @@ def on_steps(steps):
 
 
 def log_series(stream, entity: str, steps, values, look: Look, width: float | None = None):
-    """One line on the `step` timeline in look's colour, named look.label in the legend. Non-finite
-    values (a diverged run, the log of an exact zero) are left out; a line of FEW_POINTS values or fewer
-    marks each one (a single value draws no line), a flat two-point reference excepted; a line with none left
-    is named in the legend and sends no column (three empty columns in one recording crash Rerun 0.41's
-    viewer). Returns the values logged."""
+    """One line on the `step` timeline in look's colour and legend label, non-finite values left out; a short line
+    (FEW_POINTS or fewer, not a flat two-point reference) marks each value; one with no value sends no column (three
+    empty columns crash Rerun 0.41's viewer). Returns the values logged."""
     import numpy as np
     import rerun as rr
 
@@ -174,10 +144,8 @@ def padded(values, margin: float = 0.05):
 
 
 def time_series(origin: str, name: str, last_step: int, values=None, legend: str = "RightBottom", y_range=None):
-    """A plot of every series under `origin`, opening on the whole run (step 0 to last_step, and END_ROOM past
-    it: the viewer labels its grid at round steps, #1000 and #2000 on the chapter's run, and one at the very
-    edge would be cut off), its y range fitted to `values` (an array or a list of arrays) or given as y_range;
-    hovering shows every curve."""
+    """A plot of every series under `origin`, opening on steps 0..last_step and END_ROOM past it (so the last round
+    step's label shows), its y range fitted to `values` or given as y_range; hovering shows every curve."""
     import rerun as rr
     import rerun.blueprint as rrb
 
@@ -211,9 +179,8 @@ def extent(paths):
 
 
 def near(reference, paths, reach: float = REACH) -> list:
-    """The paths ((..., 3) arrays) to frame with `reference` (the exact motion, or the runs that stay bounded):
-    each whose every point is drawable and, in x and y, within `reach` times the reference's half-width of
-    its centre. A path that goes further is left out of the framing: the view shows it leaving."""
+    """The paths ((..., 3) arrays) to frame with `reference`: each drawable and, in x and y, within `reach` times the
+    reference's half-width of its centre. A path that goes further is seen leaving."""
     import numpy as np
 
     low, high = extent(reference)
@@ -227,10 +194,8 @@ def near(reference, paths, reach: float = REACH) -> list:
 
 
 def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | None = 0.5, margin: float = 1.2):
-    """A 3D view of `origin` whose camera frames every drawable point of `paths`, looking down on z = 0.
-
-    tilt 0 looks straight down with +y up the screen: a flat plot with y pointing up, as on paper (Rerun's
-    2D views point y down). A small tilt shows that it is 3D. margin > 1 leaves room for the axis names."""
+    """A 3D view of `origin` looking down on z = 0, framing every drawable point of `paths`, +y up the screen as on
+    paper (Rerun's 2D views point y down); a small tilt shows it is 3D, margin > 1 leaves room for the axis names."""
     import rerun.blueprint as rrb
 
     low, high = extent(paths)
@@ -244,10 +209,8 @@ def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | N
 
 
 def log_key(stream, entity: str, looks: dict, paths):
-    """A spatial view's key: one dot per name in its colour, its label under it, in a column just right of
-    every drawable point of `paths`, from their top edge down. Fixed in the plane, so no label ever sits on
-    a path or on another label however the bodies crowd. A label's note after ': ' (the step a run blew up
-    at) goes on a line of its own. Returns the key's points, for from_above()."""
+    """A spatial view's key, fixed in the plane just right of every drawable point of `paths`: one dot per name in its
+    colour, its label under it (a note after ': ' on a line of its own). Returns the key's points, for from_above()."""
     import numpy as np
     import rerun as rr
 
@@ -266,10 +229,8 @@ def log_key(stream, entity: str, looks: dict, paths):
 
 
 def log_axes(stream, entity: str, low, high, names: tuple[str, str], scales=(1.0, 1.0)) -> None:
-    """Two axes through the origin spanning low..high (x, y), each named just past its positive tip,
-    with ticks at round numbers. Each name sits beyond its own tip, so the two never meet. An axis much
-    shorter than the other gets ticks as far apart as a quarter of the longer one would (often none), so
-    its labels never crowd. An axis drawn `scales[i]` times its true size labels its ticks in true units."""
+    """Two axes through the origin spanning low..high (x, y), named past their tips, ticked at round numbers as far
+    apart on both (a short axis's labels never crowd); an axis drawn `scales[i]` times its size labels true units."""
     import rerun as rr
 
     grey = [GREY]
@@ -281,12 +242,10 @@ def log_axes(stream, entity: str, low, high, names: tuple[str, str], scales=(1.0
                        show_labels=True)
     stream.log(f"{entity}/names", tips, static=True)
     ticks = []
-    longest = max(abs(x0), abs(x1), abs(y0), abs(y1))
+    longest = max(abs(x0), abs(x1), abs(y0), abs(y1))  # one spacing for both axes, from the longer: 4 to 9 ticks
+    unit = 10.0 ** math.floor(math.log10(longest)) if longest > 0.0 else 1.0
+    unit /= 5.0 if longest < 2.0 * unit else 2.0 if longest < 5.0 * unit else 1.0
     for axis, (start, end) in enumerate(((x0, x1), (y0, y1))):
-        length = max(abs(start), abs(end), 0.25 * longest)
-        unit = 10.0 ** math.floor(math.log10(length)) if length > 0.0 else 1.0  # 1 to 9 ticks each way
-        if length < 2.0 * unit:  # 1.0 to 1.99: ticks every half unit, so that one lands inside the tip
-            unit /= 2.0
         for k in range(math.ceil(start / unit), math.floor(end / unit) + 1):
             at_tip = abs(k * unit - end) < 0.15 * (end - start)  # a tick there would sit under the axis name
             if k and not at_tip:

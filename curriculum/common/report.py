@@ -1,8 +1,5 @@
-"""What a chapter's run reports: metrics.json, whose bytes the course's CI diffs (the same run gives the same
-bytes), the cells of the table it prints, and where its files went.
-
-    from curriculum.common.report import rounded, metrics_text, cell, sim_time, write_outputs, where_written
-"""
+"""What a chapter's run reports: metrics.json (the same run gives the same bytes), its table's cells, where its
+files went."""
 
 import json
 import math
@@ -11,9 +8,8 @@ from curriculum.common.outputs import content_id, write_run
 
 
 def rounded(value):
-    """Every float in `value` (through dicts and lists) to 12 decimals, the chapter's format: RK4's drift
-    at the chapter's dt, ~5e-11, keeps two digits. From dt 0.004 down it is below 1e-12 and rounds to 0.0
-    in the file; the printed table keeps five significant digits of every drift."""
+    """Every float in `value` (through dicts and lists) to 12 decimals, the chapter's format (RK4's ~5e-11 drift keeps
+    two digits; the printed table keeps five significant digits of every drift)."""
     if isinstance(value, dict):
         return {key: rounded(item) for key, item in value.items()}
     if isinstance(value, list):
@@ -43,12 +39,9 @@ def sim_time(seconds: float) -> str:
 
 
 def write_outputs(out, metrics: dict, metrics_file: str, recording=None) -> str | None:
-    """Write a run's metrics.json, and its recording if one is asked for, together (curriculum.common.outputs).
-
-    metrics gets its "run_id": content_id of the file written without it, so the same run gets the same id.
-    recording: None, or (file name, record) where record(run_id) returns (the .rrd's bytes, a note or None);
-    the recording carries the same run_id as its recording id. Returns the recording's note.
-    """
+    """Write a run's metrics.json, and its recording if asked for (None, or (file name, record) where record(run_id)
+    returns (the .rrd's bytes, a note or None)), together. "run_id" is the content_id of metrics.json written
+    without it, and the recording's id too. Returns the recording's note."""
     metrics["run_id"] = content_id(metrics_text(metrics))
     files, note = {}, None
     if recording:

@@ -1,29 +1,23 @@
 """Run a student's file where it cannot decide the verdict: the harness of every chapter's code exercise.
 
-    problem = source_problem(path)             # (exit code, sentence) if it cannot be checked; runs none of it
+    problem = source_problem(path)  # (exit code, sentence) if it cannot be checked; runs none of it
     run = collect(path, "exercises.support.ex2_cases", tasks, prog="python -m exercises.check_ex2")
-    run.results[i]                             # the collector's answer to tasks[i], or {"error": ...}
-    error_sentence(run.results[i]["error"])    # '... raised ZeroDivisionError ... in f(), line 9 of x.py: ...'
 
-The file runs in a child Python in isolated mode (-I), its folder on sys.path after the standard library,
-so a scratch `threading.py` beside it cannot replace Python's own. The child imports the chapter's
-collector first, then the student's file, then hands each task to collector.collect(module, task) and
-sends the answers back as JSON lines on a pipe of its own; the student's prints go to another pipe, of
-which a bounded amount is kept. Start-up, the import and the tasks each get the time limit. The child
-runs in a scratch folder (its working directory and TMPDIR) under a keeper, a process of ours that runs
-none of the student's code, is the subreaper of all the child starts (Linux), and holds our pipe: on
-every way the checker ends (normal end, time limit, Ctrl-C, SIGTERM, SIGHUP, SIGQUIT, SIGKILL) the pipe
-closes, and the keeper kills every one of those processes and removes the folder. A task that never ends
-costs its group: the other groups' tasks run again in a fresh child, so one endless loop does not hide
-the verdict on another function.
+The file runs in a child Python in a session of its own (-s -P, PYTHONHASHSEED=0: one verdict per file), its
+folder on sys.path after the standard library; the child hands each task to collector.collect(module, task) and
+sends the answers as JSON lines on a pipe. Its prints go to a sink that keeps the first few kB and only counts the
+rest. However the checker ends (a signal is the guard's one line, SIGKILL too), a sentinel the child forks sees
+the checker's end of a pipe close, kills the child's process group and removes its scratch folder. A task that
+never ends costs its group; the others run again in a new child.
 """
 
 import argparse
 import ast
+import builtins
 import contextlib
-import ctypes
 import importlib
 import importlib.util
+import io
 import json
 import os
 import select
@@ -34,58 +28,48 @@ import subprocess
 import sys
 import tempfile
 import textwrap
-import threading
 import time
 import tokenize
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from curriculum.common import interrupts
 from curriculum.common.cli import shown
-from curriculum.common.interrupts import say
 from curriculum.common.outputs import OutputError, one_line_failures
 
 REPO = Path(__file__).resolve().parents[2]
 MAX_SOURCE_BYTES = 1_000_000  # a file of a few functions is a few kB; past this it is not the student's file
 KEPT_OUTPUT_BYTES = 4096  # of what the student's code prints: enough to show, bounded whatever it does
 MAX_ANSWER_BYTES = 64_000_000  # what the child may send back; past this the run counts as malformed
-STOPS = {signal.SIGINT: ("interrupted", 130), signal.SIGTERM: ("terminated", 143), signal.SIGHUP: ("hung up", 129),
-         signal.SIGQUIT: ("quit", 131)}  # the signals that end the checker in one line, and how
 DONE = b'{"done": true}\n'  # the child's last answer
 PHASES = (b'{"stage": "import"}', b'{"stage": "tasks"}')  # each starts the time limit afresh
-KEEPER = f"import sys; sys.path.append({str(REPO)!r}); from curriculum.common.student_code import _keeper;" \
-         " _keeper(int(sys.argv[1]))"
-PR_SET_PDEATHSIG, PR_SET_CHILD_SUBREAPER = 1, 36  # Linux's prctl(2) options
-_active = {}  # the running keeper, for the signal handler
+CHILD = "import sys; sys.path.append(sys.argv[2]); from curriculum.common.student_code import _child; _child()"
 
 
 # --- before anything runs: a regular, readable, compiling Python file ---
 
 
 def source_problem(path: Path) -> tuple[int, str] | None:
-    """(exit code, sentence) if `path` cannot be checked: 2 if it is not a Python source file, 1 if it does
-    not compile (the sentence then ends with the line and a caret). None if it can. Runs none of its code."""
-    where, name = shown(path, 100), shown(path.name, 60)  # as the sentences show them
+    """(exit code, sentence) if `path` cannot be checked: 2 if it is not a Python source file, 1 if it does not
+    compile (the sentence then ends with the line and a caret). None if it can. Runs none of its code."""
+    where, name = shown(path, 100), shown(path.name, 60)
     try:
         info = path.stat()
+        if stat.S_ISDIR(info.st_mode):
+            return 2, f"{where} is a folder; give the .py file itself"
+        if not stat.S_ISREG(info.st_mode):  # a FIFO or a device: reading it could block forever
+            return 2, f"{where} is not a regular file (it is a pipe or a device); give the .py file itself"
+        if path.suffix != ".py":
+            if path.suffix.lower() == ".py":
+                return 2, f"{name} ends in {shown(path.suffix)}: Python imports only files ending in .py: rename it"
+            return 2, f"{name} is not a Python file: the checker imports it, so it must end in .py"
+        if info.st_size > MAX_SOURCE_BYTES:
+            return 2, f"{where} is {info.st_size / 1e6:,.0f} MB; a file of a few functions is a few kB. Is it the" \
+                      " right file?"
+        data = path.read_bytes()
     except FileNotFoundError:
         return 2, f"there is no file {where}"
-    except OSError as error:
-        return 2, f"cannot read {where}: {error.strerror}"
-    if stat.S_ISDIR(info.st_mode):
-        return 2, f"{where} is a folder; give the .py file itself"
-    if not stat.S_ISREG(info.st_mode):  # a FIFO or a device: opening or reading it could block forever
-        return 2, f"{where} is not a regular file (it is a pipe or a device); give the .py file itself"
-    if path.suffix != ".py":
-        if path.suffix.lower() == ".py":
-            return 2, f"{name} ends in {shown(path.suffix)}: Python imports only files ending in .py: rename it"
-        return 2, f"{name} is not a Python file: the checker imports it, so it must end in .py"
-    if info.st_size > MAX_SOURCE_BYTES:
-        return 2, (f"{where} is {info.st_size / 1e6:,.0f} MB; a file of a few functions is a few kB. Is it the"
-                   " right file?")
-    try:
-        with open(path, "rb") as file:
-            data = file.read(MAX_SOURCE_BYTES + 1)
     except OSError as error:
         return 2, f"cannot read {where}: {error.strerror}"
     if b"\0" in data:
@@ -101,8 +85,8 @@ def source_problem(path: Path) -> tuple[int, str] | None:
         source = data.decode(encoding)
     except UnicodeDecodeError as error:
         line = data[: error.start].count(b"\n") + 1
-        return 1, (f"{where}, line {line}: this line is not valid text (byte {data[error.start]:#04x});"
-                   " save the file as UTF-8.")
+        return 1, f"{where}, line {line}: this line is not valid text (byte {data[error.start]:#04x}); save the file" \
+                  " as UTF-8."
     try:
         compile(source, str(path), "exec", dont_inherit=True)
     except SyntaxError as error:  # IndentationError and TabError too
@@ -162,24 +146,27 @@ def as_arrays(result, names: tuple, shape: tuple, np) -> tuple:
     return tuple(arrays)
 
 
-# --- the parent: start the keeper, keep what the child says, end them on every path ---
+# --- the parent: start the child, keep what it says, end it on every path ---
 
 
 @dataclass
 class Run:
     results: dict = field(default_factory=dict)  # task index -> the collector's answer, or {"error": ...}
-    stopped: dict = field(default_factory=dict)  # task index -> "time limit" or "exit code N"
+    stopped: dict = field(default_factory=dict)  # task index -> "time limit", "exit code N" or "crashed (...)"
     imported: dict | None = None  # {"error": ...} if importing the student's file failed
     clashes: list = field(default_factory=list)  # (file beside the student's, the module Python uses instead)
     printed: bytes = b""  # the first KEPT_OUTPUT_BYTES of what the student's code printed
     printed_bytes: int = 0
+    prints: int = 0  # print() calls made once the kept bytes were full: counted, never formatted
     malformed: str | None = None  # what was wrong with the child's answers, if they could not be read
 
 
 def collect(path: Path, collector: str, tasks: list, prog: str, time_limit: float = 20.0) -> Run:
-    """Run `tasks` (dicts; "group" names a task's group) on the student's file, in as many children as needed."""
-    run, pending = Run(), list(range(len(tasks)))
-    with stopping_cleanly(prog):
+    """Run `tasks` (dicts; "group" names a task's group) on the student's file, in as many children as needed.
+    (`prog` names the checker; a signal meanwhile is the guard's one line.)"""
+    run, pending, said = Run(), list(range(len(tasks))), interrupts.said()
+    interrupts.said("your file's run was stopped and its scratch folder removed")  # what a signal says meanwhile
+    try:
         while pending and run.imported is None and run.malformed is None:
             stuck = _one_child(path, collector, tasks, pending, time_limit, run)
             if stuck is None:
@@ -189,6 +176,8 @@ def collect(path: Path, collector: str, tasks: list, prog: str, time_limit: floa
                 if i not in run.results and (i == stuck or tasks[i].get("group") == group):
                     run.stopped[i] = run.stopped.get(stuck, "")
             pending = [i for i in pending if i not in run.results and i not in run.stopped]
+    finally:
+        interrupts.said(said)
     return run
 
 
@@ -196,68 +185,65 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
     """One child for the `pending` tasks. Returns the index of a task it stopped in (time limit or exit), or None."""
     try:
         scratch = tempfile.mkdtemp(prefix="student-code-")
+        job = Path(scratch, "job.json")
+        job.write_text(json.dumps({"file": str(path.resolve()), "collector": collector,
+                                   "tasks": {i: tasks[i] for i in pending}}))
     except OSError as error:
         raise OutputError(f"the checker cannot make its scratch folder in {shown(tempfile.gettempdir(), 100)}"
                           f" ({error.strerror}); free some space there, or set TMPDIR to another folder", 2) from None
     answers_read, answers_write = os.pipe()
-    job = json.dumps({"file": str(path.resolve()), "collector": collector, "scratch": scratch,
-                      "tasks": {i: tasks[i] for i in pending}})
-    try:  # (a signal before _active knows the keeper ends us, which closes its pipe: it cleans up alone)
-        keeper = _active["keeper"] = subprocess.Popen(
-            [sys.executable, "-I", "-B", "-c", KEEPER, str(answers_write)], cwd=scratch,
-            env={**os.environ, "TMPDIR": scratch}, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, pass_fds=(answers_write,), start_new_session=True)
+    watch_read, watch = os.pipe()  # its closing (our end, or our death by any signal) ends the child's group
+    env = {**{k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}, "PYTHONHASHSEED": "0",
+           "TMPDIR": scratch}  # -s -P: no user site, nothing from the working folder; the environment's PYTHON* gone
+    try:
+        child = subprocess.Popen(
+            [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job), str(watch_read)],
+            cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            pass_fds=(answers_write, watch_read), start_new_session=True)
     except OSError:
         shutil.rmtree(scratch, ignore_errors=True)
+        os.close(watch)
         raise
     finally:
         os.close(answers_write)
-    printed, answers = bytearray(), bytearray()
-    readers = [threading.Thread(target=_drain, args=(keeper.stdout.fileno(), printed, KEPT_OUTPUT_BYTES, run),
-                                daemon=True),
-               threading.Thread(target=_drain, args=(answers_read, answers, MAX_ANSWER_BYTES, None), daemon=True)]
+        os.close(watch_read)
+    answers, deadline, phase, ended = bytearray(), time.monotonic() + time_limit, 0, False
     try:
-        for reader in readers:
-            reader.start()
-        with contextlib.suppress(OSError):  # the keeper is already gone: what it left says why
-            keeper.stdin.write(job.encode() + b"\n")
-            keeper.stdin.flush()  # and the pipe stays open: its closing tells the keeper to end it all
-        deadline, phase, ended = time.monotonic() + time_limit, 0, False
-        while not ended and time.monotonic() < deadline:
+        while not ended and time.monotonic() < deadline and len(answers) <= MAX_ANSWER_BYTES:
+            if select.select([answers_read], [], [], 0.01)[0]:
+                answers += os.read(answers_read, 1 << 20)
             if phase < len(PHASES) and PHASES[phase] in answers:  # the import, then the tasks: time afresh
                 phase, deadline = phase + 1, time.monotonic() + time_limit
-            ended = (answers.endswith(DONE) or b'{"exited": ' in answers[-32:]  # its threads may outlive DONE
-                     or keeper.poll() is not None)
-            time.sleep(0.01 if not ended else 0)
+            ended = answers.endswith(DONE) or child.poll() is not None  # (its threads may outlive DONE)
+        code = child.poll()
     finally:
+        _end(child, scratch, watch)
+        os.set_blocking(answers_read, False)  # what is left, unless a process that escaped the group holds it
         with contextlib.suppress(OSError):
-            keeper.stdin.close()  # the keeper ends every process of the student's and removes the scratch folder
-        keeper.wait()
-        _active.clear()
-        for reader in readers:
-            reader.join(timeout=1.0)  # EOF once they are gone; a process that escaped the keeper cannot hold us
+            while len(answers) <= MAX_ANSWER_BYTES and (chunk := os.read(answers_read, 1 << 20)):
+                answers += chunk
         os.close(answers_read)
-        keeper.stdout.close()
-        shutil.rmtree(scratch, ignore_errors=True)  # (the keeper's job; this is for a keeper that never started)
-    run.printed = run.printed or bytes(printed)  # a second child (after a stuck task) prints the same start again
-    return _read_answers(bytes(answers), run, pending, ended)
+    return _read_answers(bytes(answers[:MAX_ANSWER_BYTES + 1]), run, pending, ended, code)
 
 
-def _drain(fd: int, kept: bytearray, limit: int, run: Run | None) -> None:
-    """Read the pipe to its end, keeping at most `limit` bytes: a file that floods cannot flood the checker."""
-    with contextlib.suppress(OSError):  # closed under us after the time limit
-        while chunk := os.read(fd, 65536):
-            kept += chunk[: max(0, limit - len(kept))]
-            if run is not None:
-                run.printed_bytes += len(chunk)
-            elif len(kept) >= limit:
-                kept += b"\n!overflow"
-                return
+def _end(child, scratch: str, watch: int) -> None:
+    """Kill the child's process group (all it started, unless it left the group) and remove its scratch folder."""
+    os.close(watch)
+    with contextlib.suppress(OSError):
+        os.killpg(child.pid, signal.SIGKILL)
+    child.wait()
+    for _ in range(200):  # the group's processes are gone in a moment: SIGKILL cannot be caught
+        try:
+            os.killpg(child.pid, 0)
+        except OSError:
+            break
+        time.sleep(0.005)
+    shutil.rmtree(scratch, ignore_errors=True)
 
 
-def _read_answers(answers: bytes, run: Run, pending: list, ended: bool) -> int | None:
+def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: int | None) -> int | None:
     """Fill `run` from the child's JSON lines. Returns the task it stopped in, if it did not finish."""
-    stage, code = None, None
+    stage, dropped, prints, printed = None, 0, 0, ""
     try:
         for line in answers.decode().splitlines():
             message = json.loads(line)
@@ -269,14 +255,20 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool) -> int |
                 run.imported = dict(message["import"])
             elif "clashes" in message:
                 run.clashes = [(str(a), str(b)) for a, b in message["clashes"]]
-            elif "exited" in message:  # the keeper's word: the child ended by itself, with this exit code
-                code = int(message["exited"])
+            elif "printed" in message:  # the first KEPT_OUTPUT_BYTES of what the student's code printed
+                printed += str(message["printed"])
+            elif "dropped" in message:  # what the sink counted and did not pass on, so far
+                dropped, prints = int(message["dropped"]), int(message.get("prints", 0))
             elif "done" not in message:
                 raise ValueError("an answer the checker never asks for")
     except (ValueError, TypeError, KeyError, UnicodeDecodeError) as error:  # a forgery, or a cut-off line
         run.malformed = f"what it sent back could not be read ({type(error).__name__}: {shown(error, 80)})"
         return None
+    run.printed = run.printed or printed.encode()  # a second child (after a stuck task) prints the same start again
+    run.printed_bytes, run.prints = run.printed_bytes + len(printed.encode()) + dropped, run.prints + prints
     why = "time limit" if not ended else f"exit code {code}"
+    if ended and code is not None and code < 0:
+        why = f"crashed ({signal.strsignal(-code).lower()}, signal {-code})"
     if stage is None or stage == "import" and run.imported is None:
         if ended and stage is None:
             run.malformed = f"Python stopped before your file was even imported ({why})"
@@ -289,33 +281,6 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool) -> int |
         run.stopped[stuck] = why
         return stuck
     return None
-
-
-@contextlib.contextmanager
-def stopping_cleanly(prog: str):
-    """Inside: Ctrl-C, SIGTERM, SIGHUP (the terminal closed) and SIGQUIT close the keeper's pipe, wait for it to
-    end it all, print one line and exit 130, 143, 129 or 131. The handlers from before are back afterwards."""
-    previous = {number: signal.getsignal(number) for number in STOPS}
-
-    def stop(number, frame):
-        keeper = _active.get("keeper")
-        if keeper:
-            with contextlib.suppress(OSError, ValueError):
-                os.close(keeper.stdin.fileno())
-            with contextlib.suppress(OSError):
-                os.waitpid(keeper.pid, 0)  # it has ended the student's processes and removed the scratch folder
-        what, code = STOPS[number]
-        say(f"{prog}: {what}" + (": your file's run was stopped and its scratch folder removed" if keeper else ""))
-        os._exit(code)
-
-    for number in STOPS:
-        if previous[number] is not signal.SIG_IGN:  # nohup and friends ignore on purpose
-            signal.signal(number, stop)
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
 
 
 # --- comparing outputs with the reference's (numpy arrays, passed in) ---
@@ -350,6 +315,8 @@ def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str |
         return f"your file stopped while Python was importing it: it {error_sentence(run.imported['error'])}."
     if run.imported:
         flood = f" It printed {run.printed_bytes:,} bytes meanwhile." if run.printed_bytes > 1_000_000 else ""
+        if run.imported["stopped"].startswith("crashed"):
+            return f"your code {run.imported['stopped']} while Python was importing your file.{flood}"
         if run.imported["stopped"].startswith("exit"):
             return (f"your file ended Python while it was being imported ({run.imported['stopped']}): does it call"
                     f" os._exit() at the top level? Only definitions need to be there.{flood}")
@@ -360,7 +327,9 @@ def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str |
         stopped, result = run.stopped.get(i), run.results.get(i, {})
         if stopped == "time limit":
             return (f"stopped after {time_limit:.0f} s {where(i)}, without returning. Is there a loop that never ends,"
-                    " a sleep, or a print in every call? One call should take well under a millisecond.")
+                    " or a sleep? One call should take well under a millisecond.")
+        if stopped and stopped.startswith("crashed"):
+            return f"your code {stopped} {where(i)}: Python itself stopped. Does it call os.kill(), os.abort(), ctypes?"
         if stopped:
             return (f"the checker's run of your file ended by itself ({stopped}) {where(i)}. Does your code call"
                     " os._exit(), or crash Python? A function should only return its result.")
@@ -381,9 +350,10 @@ def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str |
 
 def print_notes(run: Run) -> None:
     """What the student's code printed (the start of it) and any module clash, before the verdicts."""
-    if run.printed_bytes:
+    if run.printed_bytes or run.prints:
         lines = run.printed.decode("utf-8", "replace").splitlines()[:8]
-        print(f"Your code printed {run.printed_bytes:,} bytes while it was checked; the start:")
+        more = f" and called print() {run.prints:,} times more" if run.prints else ""
+        print(f"Your code printed {run.printed_bytes:,} bytes{more} while it was checked; the start:")
         print("\n".join(f"  | {shown(line, 200)}" for line in lines) + "\n")
     if run.clashes:
         print(textwrap.fill(clash_sentence(run.clashes), width=100) + "\n")
@@ -408,8 +378,7 @@ def clash_sentence(clashes: list) -> str:
 
 def main(prog: str, doc: str, default: Path, what: str, check, argv=None) -> int:
     """`prog [FILE]`: check(path) -> ({function: solved}, messages, run) for a file that compiles; 0 solved, 1 not,
-    2 unusable. Each check goes to the journal (journal.checked), and the run ends with its "Next:" line. A closed
-    or full stdout, a signal or a refused resource is one line (curriculum.common.outputs)."""
+    2 unusable. Each check goes to the journal (journal.checked), and the run ends with its "Next:" line."""
     return one_line_failures(prog)(_main)(prog, doc, default, what, check, argv)
 
 
@@ -440,54 +409,56 @@ def _main(prog: str, doc: str, default: Path, what: str, check, argv) -> int:
     return 0 if solved else 1
 
 
-# --- the keeper and the child, run as `python -I -B -c KEEPER FD`, the job on stdin ---
+# --- the child, run as `python -s -P -B -c CHILD FD REPO JOB PARENT` ---
 
 
-def _keeper(answers_fd: int) -> None:
-    """Fork the child that runs the student's file, say on the answers pipe when it ends by itself, and when the
-    checker closes our stdin (or dies: that closes it too), kill the child and every process it started
-    (orphaned, they come to us: the subreaper), round after round, then remove the scratch folder."""
-    prctl = getattr(ctypes.CDLL(None), "prctl", lambda *args: -1)  # Linux's prctl(2); elsewhere, the watch on stdin
-    prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
-    job, keeper = json.loads(sys.stdin.buffer.readline()), os.getpid()
-    child = os.fork()
-    if child == 0:
-        prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)  # the child ends with the keeper, however the keeper ends
-        try:
-            if os.getppid() == keeper:
-                _child(job, answers_fd)
-            sys.stdout.flush()
-        except BaseException:  # noqa: BLE001 (our own code failed: its traceback reaches the checker as output)
-            traceback.print_exc()
+class _Sink(io.TextIOBase):
+    """The student's sys.stdout and sys.stderr: the first KEPT_OUTPUT_BYTES go to the checker as answers, the rest
+    are only counted (said every megabyte, and at the end). Once it is full, print() to it only counts the call:
+    formatting arrays costs more than the step, so a print in every call would decide the verdict."""
+
+    encoding = "utf-8"
+
+    def __init__(self, send):
+        super().__init__()
+        self.send, self.passed, self.dropped, self.prints, self.print = send, 0, 0, 0, builtins.print
+        builtins.print = self.counted
+
+    def counted(self, *args, file=None, **kwargs):
+        if file in (None, self) and self.passed >= KEPT_OUTPUT_BYTES:
+            self.prints += 1
+        else:
+            self.print(*args, file=file, **kwargs)
+
+    def write(self, text) -> int:
+        data = str(text).encode("utf-8", "backslashreplace")
+        room = min(len(data), max(0, KEPT_OUTPUT_BYTES - self.passed))
+        if room:
+            self.passed += room
+            self.send({"printed": data[:room].decode("utf-8", "ignore")})
+        before, self.dropped = self.dropped, self.dropped + len(data) - room
+        if self.dropped >> 20 != before >> 20:
+            self.send({"dropped": self.dropped})
+        return len(text)
+
+
+def _child() -> None:
+    answers_fd, _, job_file, watch = sys.argv[1:]  # the answers' pipe first, as before
+    group, scratch = os.getpid(), os.getcwd()
+    if os.fork() == 0:  # a sentinel, in a group of its own: when the checker's end of `watch` closes (it is done,
+        os.setpgid(0, 0)  # or any signal ended it, SIGKILL too), it ends our group, all we started, and removes
+        os.chdir("/")  # the scratch folder
+        os.read(int(watch), 1)
+        os.killpg(group, signal.SIGKILL)
+        shutil.rmtree(scratch, ignore_errors=True)
         os._exit(0)
-    ended = False
-    while not select.select([0], [], [], 0.05)[0]:  # until the checker closes our stdin, or is gone
-        pid, status = (0, 0) if ended else os.waitpid(child, os.WNOHANG)
-        if pid:
-            ended = True
-            os.write(answers_fd, f'{{"exited": {os.waitstatus_to_exitcode(status)}}}\n'.encode())
-    with contextlib.suppress(OSError):
-        os.killpg(child, signal.SIGKILL)  # its group: all there is to end where there is no subreaper
-    for _ in range(1000):  # orphaned, what it started comes to us: kill our children round by round, till none
-        with contextlib.suppress(OSError), open(f"/proc/self/task/{keeper}/children") as listed:
-            for pid in listed.read().split():
-                os.kill(int(pid), signal.SIGKILL)
-        try:
-            if os.waitpid(-1, os.WNOHANG) == (0, 0):
-                time.sleep(0.005)
-        except ChildProcessError:
-            break  # no child left
-    shutil.rmtree(job["scratch"], ignore_errors=True)
-
-
-def _child(job: dict, answers_fd: int) -> None:
-    os.setpgid(0, 0)
-    os.dup2(os.open(os.devnull, os.O_RDONLY), 0)  # input() in the student's code ends, it does not wait
-    answers = os.fdopen(answers_fd, "w", buffering=1)
+    os.close(int(watch))
+    job, answers = json.loads(Path(job_file).read_text()), os.fdopen(int(answers_fd), "w", buffering=1)
 
     def send(message):
         answers.write(json.dumps(message) + "\n")
 
+    sys.stdout = sys.stderr = sink = _Sink(send)
     student = Path(job["file"])
     sys.path.append(str(student.parent))  # after the standard library and site-packages
     collector = importlib.import_module(job["collector"])
@@ -500,17 +471,20 @@ def _child(job: dict, answers_fd: int) -> None:
         spec.loader.exec_module(module)
     except BaseException as error:  # noqa: BLE001 (SystemExit too: reported, not obeyed)
         send({"import": {"error": _described(error, student, course)}})
-        return
-    send({"stage": "tasks"})
-    for index, task in job["tasks"].items():
-        send({"stage": int(index)})
-        try:
-            result = collector.collect(module, task)
-        except BaseException as error:  # noqa: BLE001
-            result = {"error": _described(error, student, course)}
-        send({"task": int(index), "result": result})
+        module = None
+    if module is not None:
+        send({"stage": "tasks"})
+        for index, task in job["tasks"].items():
+            send({"stage": int(index)})
+            try:
+                result = collector.collect(module, task)
+            except BaseException as error:  # noqa: BLE001
+                result = {"error": _described(error, student, course)}
+            send({"task": int(index), "result": result})
+    send({"dropped": sink.dropped, "prints": sink.prints})
     answers.write(DONE.decode())
     answers.flush()
+    os._exit(0)  # the student's threads and exit handlers do not run on
 
 
 def _clashes(student: Path, course: set) -> list:
@@ -543,4 +517,3 @@ def _described(error: BaseException, student: Path, course: set) -> dict:
         described.update(file=Path(where.filename).name, line=where.lineno, code=(where.line or "").strip(),
                          function=where.name)
     return described
-

@@ -1,8 +1,6 @@
-"""The systems check_ex2 runs your steps on, and collect(), which runs them: in the checker's child on
-your steps, in the checker on the engine's, so both go through the same code. The chapter's three systems
-have mass 1 and forces that ignore velocity: a step that forgets `/ m`, or hands a stage the wrong
-velocity, looks right on them. The checker's own add masses other than 1 and forces that depend on v.
-"""
+"""The systems check_ex2 runs your steps on, and collect(), which runs them (in the child on yours, in the
+checker on the engine's: the same code). The chapter's have m = 1 and forces that ignore velocity, so a step
+that forgets `/ m` or hands a stage the wrong velocity looks right on them; the checker's own do not."""
 
 import math
 
@@ -62,8 +60,8 @@ def exact_position(name: str, q0, v0, t: float) -> np.ndarray:
 
 
 def collect(steps, task: dict) -> dict:
-    """Run one task with steps.<task["function"]>: single steps from fresh states ("probes"), or one whole
-    run, each step fed exactly what the one before returned (lists stay lists, as in engine.simulate).
+    """Run one task with steps.<task["function"]>: single steps, each twice from the same fresh state ("probes"),
+    or one whole run, each step fed exactly what the one before returned (lists stay lists, as in engine.simulate).
     Returns plain lists, which travel as JSON."""
     step = getattr(steps, task["function"], None)
     if not callable(step):
@@ -83,16 +81,17 @@ def collect(steps, task: dict) -> dict:
     np.seterr(all="ignore")  # a diverging step is measured, not warned about
     try:
         if task["kind"] == "probes":
-            outputs, counts, changed = [], [], set()
+            outputs, again, counts, changed = [], [], [], set()
             for probe in task["probes"]:
-                q, v = np.array(probe["q"]), np.array(probe["v"])
-                calls[0] = 0
-                step_taken = step(q, v, mass(probe["system"]), force_of(probe["system"]), probe["dt"])
-                q_next, v_next = as_arrays(step_taken, STATE, (3,), np)
-                outputs.append([q_next.tolist(), v_next.tolist()])
+                for kept in (outputs, again):  # twice from the same state: do its results vary between calls?
+                    q, v = np.array(probe["q"]), np.array(probe["v"])
+                    calls[0] = 0
+                    step_taken = step(q, v, mass(probe["system"]), force_of(probe["system"]), probe["dt"])
+                    q_next, v_next = as_arrays(step_taken, STATE, (3,), np)
+                    kept.append([q_next.tolist(), v_next.tolist()])
+                    changed |= {name for name, given in (("q", q), ("v", v)) if given.tolist() != probe[name]}
                 counts.append(calls[0])
-                changed |= {name for name, given in (("q", q), ("v", v)) if given.tolist() != probe[name]}
-            return {"outputs": outputs, "calls": counts, "changed": sorted(changed)}
+            return {"outputs": outputs, "again": again, "calls": counts, "changed": sorted(changed)}
         q, v = np.array(task["q0"]), np.array(task["v0"])
         m, force, rows, reused = mass(task["system"]), force_of(task["system"]), [q.tolist() + v.tolist()], None
         for k in range(1, task["steps"] + 1):

@@ -2,23 +2,18 @@
 
 An entry (function, step, message, where) is the verdict when the student's single steps equal `step`'s on
 all the checker's systems ("all"), or on those whose force ignores velocity ("velocity-free"). {orbit} and
-{halving} are measured on the student's runs. Messages never show the answer's code; a mass mistake needs
-no entry (the checker sees "right whenever m = 1" by itself), nor does a blend scaled uniformly or a change
-rounded down by // (check_ex2.verdict measures the factor, and sees whole numbers)."""
+{halving} are measured on the step's own runs. Messages never show the answer's code."""
 
 
-def explicit_euler(q, v, m, force, dt):
-    return q + dt * v, v + dt * force(q, v) / m
+def euler(ahead=0.0, sign=1.0, new=1.0):
+    """Semi-implicit Euler varied: the force taken `ahead` steps along v, the kick's sign, and the share of the
+    new velocity in the position's move (the rest: the old one's, so new=0 is explicit Euler)."""
 
+    def step(q, v, m, force, dt):
+        v_next = v + sign * dt * force(q + ahead * dt * v, v) / m
+        return q + dt * (new * v_next + (1 - new) * v), v_next
 
-def position_first(q, v, m, force, dt):
-    q_next = q + dt * v
-    return q_next, v + dt * force(q_next, v) / m
-
-
-def taylor_position(q, v, m, force, dt):
-    a = force(q, v) / m
-    return q + dt * v + 0.5 * dt * dt * a, v + dt * a
+    return step
 
 
 def new_velocity_without_dt(q, v, m, force, dt):
@@ -32,16 +27,10 @@ def velocity_verlet(q, v, m, force, dt):
     return q_next, v + 0.5 * dt * (a + force(q_next, v) / m)
 
 
-def drift_kick_drift(q, v, m, force, dt):
-    q_half = q + 0.5 * dt * v
-    v_next = v + dt * force(q_half, v) / m
-    return q_half + 0.5 * dt * v_next, v_next
-
-
-def runge_kutta(stages, weights, stage_velocity=True, position_slope="stage", scale=None):
-    """An explicit Runge-Kutta step on (q, v)' = (v, a) from a Butcher tableau: rows of a, weights b.
-    stage_velocity=False hands every stage the starting v; position_slope="start" makes the starting v every
-    stage's slope of q; scale replaces dt in the final blend (lambda dt: 1.0 forgets it)."""
+def runge_kutta(stages, weights, start=(), scale=None):
+    """An explicit Runge-Kutta step on (q, v)' = (v, a) from a Butcher tableau: rows of a, weights b. What
+    `start` names stays the step's start in every stage: "force v" or "force q" (what force is given), "slope q"
+    (the velocity that moves q). scale replaces dt in the final blend (lambda dt: 1.0 forgets it)."""
 
     def step(q, v, m, force, dt):
         kq, kv = [], []
@@ -50,8 +39,8 @@ def runge_kutta(stages, weights, stage_velocity=True, position_slope="stage", sc
             for a_ij, kqj, kvj in zip(row, kq, kv, strict=False):
                 if a_ij:
                     qs, vs = qs + (a_ij * dt) * kqj, vs + (a_ij * dt) * kvj
-            kq.append(vs if position_slope == "stage" else v)
-            kv.append(force(qs, vs if stage_velocity else v) / m)
+            kq.append(v if "slope q" in start else vs)
+            kv.append(force(q if "force q" in start else qs, v if "force v" in start else vs) / m)
         h = dt if scale is None else scale(dt)
         q_next, v_next = q, v
         for b, kqj, kvj in zip(weights, kq, kv, strict=True):
@@ -65,29 +54,42 @@ CLASSICAL, RK4_WEIGHTS = [[], [0.5], [0, 0.5], [0, 0, 1]], [1 / 6, 1 / 3, 1 / 3,
 SEMI, RK4 = "semi_implicit_step", "rk4_step"
 HALVING = "halving dt divides its error by {halving} on a spring with m = 2.5."
 SECOND = HALVING + " A fine second-order method, but not MuJoCo's Euler."
+FLOOR = "Is something divided with //? Floor division rounds down to a whole number: 0.1 // 2 is 0."
 
 MISTAKES = [
-    (SEMI, explicit_euler, "your step still moves the position with the old velocity: that is explicit Euler. On the"
+    (SEMI, euler(new=0), "your step still moves the position with the old velocity: that is explicit Euler. On the"
      " chapter's orbit its energy error reaches {orbit} in 2,000 steps. Which velocity should move the position?",
      "all"),
-    (SEMI, position_first, "you move the position first, then take the velocity from the force there: the other"
+    (SEMI, euler(ahead=1, new=0), "you move the position first, then take the velocity from the force there: the other"
      " symplectic Euler, bounded too (on the chapter's orbit its energy error stays within {orbit} over 2,000"
      " steps), but not MuJoCo's. Which of the two does mjINT_EULER update first?", "all"),
-    (SEMI, taylor_position, "you move the position by v dt + a dt^2 / 2, velocity Verlet's Taylor step. Which"
+    (SEMI, euler(sign=-1), "your velocity changes against the force: the spring pushes outward, the orbit's"
+     " pull pushes away. Which way does a force change the velocity?", "all"),
+    (SEMI, euler(ahead=1), "you take the force a step ahead, where the old velocity would carry the position, not where"
+     " the step starts. Its order is 1 too, so the order cannot tell: at which position does mjINT_EULER evaluate"
+     " the force?", "all"),
+    (SEMI, euler(new=0.5), "you move the position by v dt + a dt^2 / 2, velocity Verlet's Taylor step. Which"
      " velocity moves the position in semi-implicit Euler?", "all"),
     (SEMI, new_velocity_without_dt, "your position update adds a velocity without multiplying it by dt. What"
      " turns a velocity into a change of position?", "all"),
     (SEMI, velocity_verlet, "on the systems whose force ignores velocity this is velocity Verlet (leapfrog's twin: a"
      " half kick, a drift, a half kick): " + SECOND + " How many times does mjINT_EULER ask for the force in one"
      " step, and which velocity moves its position?", "velocity-free"),
-    (SEMI, drift_kick_drift, "on the systems whose force ignores velocity this is the drift-kick-drift leapfrog: "
-     + SECOND + " Where does mjINT_EULER take the force, and how far does it move the position?", "velocity-free"),
+    (SEMI, euler(ahead=0.5, new=0.5), "on the systems whose force ignores velocity this is the drift-kick-drift"
+     " leapfrog: " + SECOND + " Where does mjINT_EULER take the force, and how far does it move the position?",
+     "velocity-free"),
     (RK4, runge_kutta([[]] * 4, RK4_WEIGHTS), "all four of your slopes are taken at the start of the step: explicit"
      " Euler in disguise. How far out is each later slope sampled?", "all"),
-    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, stage_velocity=False), "your stages never hand their velocity to the"
+    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, start=["force v"]), "your stages never hand their velocity to the"
      " force: each asks with the starting v, which only a force that depends on v (the checker's damped spring)"
      " shows. Which position and which velocity does each stage hand to force(q, v)?", "all"),
-    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, position_slope="start"), "your position slopes are all the starting"
+    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, start=["force q"]), "your stages step the velocity, but every force"
+     " is taken at the starting position. Which position does each stage hand to force(q, v)?", "all"),
+    (RK4, runge_kutta([[], [0.5], [0.5, 0.5], [0.5, 0.5, 1]], RK4_WEIGHTS), "each of your stages steps from the"
+     " stage before it, so every sample lands further out than RK4's. From which state does each stage step?", "all"),
+    (RK4, runge_kutta([[], [0], [0, 0], [0, 0, 1]], RK4_WEIGHTS), "your two middle slopes are taken at the start of"
+     " the step, as if half a step were 0. " + FLOOR, "all"),
+    (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, start=["slope q"]), "your position slopes are all the starting"
      " velocity. The slope of q is the velocity: which velocity, at a stage half a step out?", "all"),
     (RK4, runge_kutta([[], [0.5]], [0, 1]), "this is the midpoint method, RK2: " + HALVING + " How many samples does"
      " RK4 take, where, and how does it weigh them?", "all"),
@@ -99,8 +101,7 @@ MISTAKES = [
     (RK4, runge_kutta(CLASSICAL, [1 / 4] * 4), "your four slopes are weighted equally. Which two count double in"
      " RK4?", "all"),
     (RK4, runge_kutta(CLASSICAL, [1 / 3, 1 / 6, 1 / 6, 1 / 3]), "your blend counts the end slopes double, the"
-     " midpoint ones once: halving dt divides its error by {halving} on a spring with m = 2.5. Which two count"
-     " double in RK4?", "all"),
+     " midpoint ones once: " + HALVING + " Which two count double in RK4?", "all"),
     (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, scale=lambda dt: dt * dt), "every change your step makes is dt times"
      " RK4's. How many times does a slope need dt to become a change?", "all"),
     (RK4, runge_kutta(CLASSICAL, RK4_WEIGHTS, scale=lambda dt: 1.0), "your final update has no dt in it: it adds a"
