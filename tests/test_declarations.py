@@ -178,7 +178,8 @@ def imports(path: Path, known: set) -> set:
             names = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
             assert not node.level, f"{path.relative_to(REPO)}: a relative import"
-            names = [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+            names = [f"{node.module}.{alias.name}" if f"{node.module}.{alias.name}" in known else node.module
+                     for alias in node.names]  # `from package import module` imports the module, not the package
         else:
             continue
         for name in names:
