@@ -105,7 +105,7 @@ def returned(law, q, v):
         return f"a {type(error).__name__}"
 
 
-NEEDS = {"dforce_dv": "a velocity-dependent force", "velocity_free": "a force that ignores the velocity"}
+NEEDS = {"dforce_dv": "the force's derivative in the velocity", "velocity_free": "a force that ignores the velocity"}
 
 
 def meets(system: dict, need: str) -> bool:
@@ -128,5 +128,6 @@ def flag_problem(system_name: str, integrator_name: str, damping, ensemble) -> s
         return None
     offered = [name for name, system in built.items() if integrator_name in integrators_for(system)]
     need = next(need for need in INTEGRATORS[integrator_name].needs if not meets(built[system_name], need))
-    return (f"argument --integrator: {integrator_name} needs {NEEDS.get(need, need)} ({need}), which --system"
-            f" {system_name} does not have: try --system {' or '.join(offered)}")
+    elsewhere = f"try --system {' or '.join(offered)}" if offered else "no system declares it yet"
+    return (f"argument --integrator: {integrator_name} needs a system that declares {need} ({NEEDS.get(need, need)}),"
+            f" which --system {system_name} does not: {elsewhere}")

@@ -1,19 +1,22 @@
 """Helpers shared by the tests: run engine.py the way a student does."""
 
+import functools
 import hashlib
 import os
-import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-# A runner may start the suite with Ctrl-C or SIGTERM ignored (a background job of a non-interactive shell is
-# started that way); the programs under test keep an ignored signal ignored, on purpose. The signal tests need
-# them delivered, to this process and to the children it starts (a handled signal is default again after exec).
+import engine
+import engine_ensembles
+
+# A runner may start the suite with Ctrl-C or SIGTERM ignored (as a non-interactive shell starts a background job);
+# the programs keep an ignored signal ignored, on purpose, and the signal tests need them delivered, here and in
+# the children (a handled signal is default again after exec).
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 if signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
@@ -22,15 +25,14 @@ if signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
 REPO = Path(__file__).resolve().parents[1]
 ENGINE = REPO / "engine.py"
 
-# The exercises record every prediction and check in the checkout's journal (curriculum/common/journal.py). The
-# suite's runs are not a student's: nothing is recorded, in this process and in every process it starts, and a
-# test of the journal points COURSE_JOURNAL at a scratch file of its own.
+# The suite's runs are not a student's: nothing goes into the checkout's journal, here or in any process started,
+# and a test of the journal points COURSE_JOURNAL at a scratch file of its own.
 os.environ["COURSE_JOURNAL"] = "off"
 CHECKOUT_JOURNAL = REPO / "exercises" / "journal.jsonl"
 
 
 @pytest.fixture(autouse=True, scope="session")
-def _the_checkouts_journal_is_left_alone():
+def _the_checkouts_journal_is_left_alone():  # under pytest-xdist each worker checks the tests it ran
     def state():
         return hashlib.sha256(CHECKOUT_JOURNAL.read_bytes()).hexdigest() if CHECKOUT_JOURNAL.exists() else None
 
@@ -48,43 +50,10 @@ def run_engine(*args, cwd=None, env=None, timeout=120):
 
 def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0, every: int = 1):
     """One run as main() makes it (simulate_long, every k-th state kept): (positions, velocities, energies)."""
-    import numpy as np
-
-    import engine
-
     system = engine.build_system(system_name, np.random.default_rng(seed))
     return engine.simulate_long(engine.integrators_for(system)[integrator], system, dt, steps, every)
 
 
 def ensemble_of(system_name: str, seeds) -> dict:
     """engine_ensembles.build_ensemble for the system called `system_name`."""
-    import functools
-
-    import engine
-    import engine_ensembles
-
     return engine_ensembles.build_ensemble(functools.partial(engine.build_system, system_name), seeds)
-
-
-# --- permissions, as a real unprivileged user ---
-
-NOBODY = 65534
-
-
-@pytest.fixture
-def shared_tmp():
-    """A folder an unprivileged user can reach (pytest's tmp_path is private to root)."""
-    if os.geteuid() != 0:
-        pytest.skip("dropping to an unprivileged user needs root; as a normal user os.access is already honest")
-    where = Path(tempfile.mkdtemp(prefix="outputs-perm-"))
-    where.chmod(0o755)
-    yield where
-    shutil.rmtree(where)
-
-
-def as_nobody(code: str, *args, load: str = "import curriculum.common.outputs") -> subprocess.CompletedProcess:
-    """Run `code` as user nobody. The interpreter (under /root, private) starts as root and imports what
-    `load` names, then drops every privilege for good before `code` touches a file."""
-    drop = f"import os; {load}; os.setgroups([]); os.setgid({NOBODY}); os.setuid({NOBODY})\n"
-    return subprocess.run([sys.executable, "-c", drop + code, *map(str, args)], cwd=REPO,
-                          capture_output=True, text=True, timeout=60)

@@ -1,17 +1,11 @@
-"""The engine's conservative systems as MuJoCo models, for the parity tests and the maintainers' tools.
-
-A module, not a script: `python tools/figures.py parity` prints the figures it gives; tools put tests/ on
-their import path to use it (tools/figures.py, tools/bench.py).
-
-One body of mass 1 on slide joints, so MuJoCo's qpos/qvel are exactly the engine's q/v
-(no quaternions, a diagonal mass matrix of ones) and no contacts:
-- spring: one slide joint along x with the spring's stiffness, no gravity;
-- freefall: slide joints along x, y, z under gravity, no other force;
-- orbit, and any system declared later: slide joints along x, y, z, no gravity; the force is
-  the engine's own force law, handed to MuJoCo through the passive-force callback.
+"""The engine's systems as MuJoCo models (for the parity tests and tools/): one body of mass 1 on slide joints, so
+qpos/qvel are the engine's q/v. The spring: one joint with its stiffness; the freefall: three under gravity; others:
+three, pulled by the engine's force law through the passive-force callback; the damped spring: one joint with
+stiffness and damping, run in a temporary folder (on a blown-up state MuJoCo writes MUJOCO_LOG.TXT and resets).
 """
 
-from contextlib import contextmanager
+import contextlib
+import tempfile
 from pathlib import Path
 
 import mujoco
@@ -19,25 +13,28 @@ import numpy as np
 
 import engine
 
-BODY = '<inertial pos="0 0 0" mass="{m}" diaginertia="1 1 1"/>'
-SLIDES = "".join(f'<joint name="{axis}" type="slide" axis="{vec}" {{extra}}/>'
-                 for axis, vec in (("x", "1 0 0"), ("y", "0 1 0"), ("z", "0 0 1")))
-
-
+BODY = '<inertial pos="0 0 0" mass="{m}" diaginertia="1 1 1"/>'  # tests/test_ex7.py builds its spring with it
 NATIVE = ("spring", "freefall")  # built from MuJoCo's own joint stiffness and gravity
 
 
+def model_xml(joints: str, integrator: str, dt: float, m: float, gravity: str = "0 0 0", flag: str = "") -> str:
+    return (f'<mujoco><option timestep="{dt!r}" integrator="{integrator}" gravity="{gravity}">{flag}</option>'
+            f'<worldbody><body name="mass">{joints}{BODY.format(m=m)}</body></worldbody></mujoco>')
+
+
 def xml_for(system_name: str, integrator: str, dt: float, m: float) -> str:
-    gravity = "0 0 -9.81" if system_name == "freefall" else "0 0 0"
     if system_name == "spring":
         joints = '<joint name="x" type="slide" axis="1 0 0" stiffness="4"/>'
     else:
-        joints = SLIDES.format(extra="")
-    return f"""
-<mujoco>
-  <option timestep="{dt!r}" integrator="{integrator}" gravity="{gravity}"/>
-  <worldbody><body name="mass">{joints}{BODY.format(m=m)}</body></worldbody>
-</mujoco>"""
+        joints = "".join(f'<joint name="{axis}" type="slide" axis="{vector}"/>'
+                         for axis, vector in (("x", "1 0 0"), ("y", "0 1 0"), ("z", "0 0 1")))
+    return model_xml(joints, integrator, dt, m, "0 0 -9.81" if system_name == "freefall" else "0 0 0")
+
+
+def damped_xml(integrator: str, dt: float, system: dict, eulerdamp: bool = True) -> str:
+    """eulerdamp=False sets mjDSBL_EULERDAMP: MuJoCo's Euler then takes the damping explicitly."""
+    joint = f'<joint name="x" type="slide" axis="1 0 0" stiffness="{system["k"]!r}" damping="{system["b"]!r}"/>'
+    return model_xml(joint, integrator, dt, system["m"], flag="" if eulerdamp else '<flag eulerdamp="disable"/>')
 
 
 def build(system_name: str, integrator: str, dt: float = 0.01, seed: int = 0):
@@ -46,22 +43,20 @@ def build(system_name: str, integrator: str, dt: float = 0.01, seed: int = 0):
     model = mujoco.MjModel.from_xml_string(xml_for(system_name, integrator, dt, system["m"]))
     data = mujoco.MjData(model)
     dof = model.nq  # 1 for the spring (x only), 3 otherwise
-    data.qpos[:] = system["q0"][:dof]
-    data.qvel[:] = system["v0"][:dof]
+    data.qpos[:], data.qvel[:] = system["q0"][:dof], system["v0"][:dof]
     return model, data, system, dof
 
 
-@contextmanager
+@contextlib.contextmanager
 def passive_force(system_name: str, system: dict):
     """Install the system's force law (the orbit's pull) as MuJoCo's passive-force callback, unless MuJoCo
     models it natively; always reset afterwards."""
     if system_name in NATIVE:
         yield
         return
-    force = system["force"]
 
     def pull(model, data):
-        data.qfrc_passive[:] += force(data.qpos, data.qvel)
+        data.qfrc_passive[:] += system["force"](data.qpos, data.qvel)
 
     mujoco.set_mjcb_passive(pull)
     try:
@@ -82,39 +77,11 @@ def mujoco_trajectory(system_name: str, integrator: str, dt: float = 0.01, steps
     return trajectory
 
 
-# --- the damped spring (issue 12): one slide joint with stiffness and damping ---
-# MuJoCo integrates joint damping implicitly in all but RK4, and when it meets a blown-up state
-# it warns, writes MUJOCO_LOG.TXT into the working folder and resets: so these runs happen in a
-# temporary folder, and a reset shows in the trajectory as a jump back to qpos0 = 0.
-
-DAMPED_INTEGRATORS = ("Euler", "implicitfast", "implicit", "RK4")
-
-
-def damped_xml(integrator: str, dt: float, system: dict, eulerdamp: bool = True) -> str:
-    """eulerdamp=False sets mjDSBL_EULERDAMP: MuJoCo's Euler then takes the damping explicitly."""
-    joint = (f'<joint name="x" type="slide" axis="1 0 0" stiffness="{system["k"]!r}"'
-             f' damping="{system["b"]!r}"/>')
-    flag = "" if eulerdamp else '<flag eulerdamp="disable"/>'
-    return f"""
-<mujoco>
-  <option timestep="{dt!r}" integrator="{integrator}" gravity="0 0 0">{flag}</option>
-  <worldbody><body name="mass">{joint}{BODY.format(m=system["m"])}</body></worldbody>
-</mujoco>"""
-
-
-@contextmanager
+@contextlib.contextmanager
 def in_scratch_folder():
     """Run with a temporary working folder (MuJoCo's MUJOCO_LOG.TXT lands there), then go back."""
-    import os
-    import tempfile
-
-    home = os.getcwd()
-    with tempfile.TemporaryDirectory(prefix="mujoco-") as scratch:
-        os.chdir(scratch)
-        try:
-            yield Path(scratch)
-        finally:
-            os.chdir(home)
+    with tempfile.TemporaryDirectory(prefix="mujoco-") as scratch, contextlib.chdir(scratch):
+        yield Path(scratch)
 
 
 def damped_trajectory(integrator: str, damping: float, dt: float = 0.01, steps: int = 2000, seed: int = 0,
@@ -124,11 +91,9 @@ def damped_trajectory(integrator: str, damping: float, dt: float = 0.01, steps: 
     system = engine.build_system("damped_spring", np.random.default_rng(seed), damping)
     model = mujoco.MjModel.from_xml_string(damped_xml(integrator, dt, system, eulerdamp))
     data = mujoco.MjData(model)
-    data.qpos[:] = system["q0"][:1]
-    data.qvel[:] = system["v0"][:1]
-    positions = np.zeros((steps + 1, 3))
+    data.qpos[:], data.qvel[:] = system["q0"][:1], system["v0"][:1]
+    positions, reset_at = np.zeros((steps + 1, 3)), None
     positions[0, 0] = data.qpos[0]
-    reset_at = None
     with in_scratch_folder():
         for i in range(1, steps + 1):
             mujoco.mj_step(model, data)

@@ -1,8 +1,5 @@
-"""The damped spring and the implicit step (issue 12), against independent truth:
-the closed-form solution, the damper's work, the one-step eigenvalues, and MuJoCo 3.10.0's own integrators.
-
-`python tools/figures.py parity` and `python tools/figures.py damped` print the figures docs/damping.md quotes;
-`python -m exercises.support.stability_map` prints the stability table.
+"""The damped spring and the implicit step (issue 12), against independent truth: the closed-form solution, the
+damper's work, the one-step eigenvalues (the stability map), MuJoCo 3.10.0's own integrators, and exercise 6.
 """
 
 import json
@@ -19,7 +16,7 @@ import pytest
 import engine
 import engine_damping
 import engine_referee
-from conftest import REPO, ensemble_of, run, run_engine
+from conftest import REPO
 from exercises import ex6_stiff_damping
 from exercises.support import stability_map
 
@@ -30,58 +27,25 @@ def damped(b=engine_damping.DAMPING, seed=0):
     return engine.build_system("damped_spring", np.random.default_rng(seed), b)
 
 
-def run_all(system, dt, steps):
+def run_all(system, dt, steps):  # every integrator the system is offered (tools/figures.py damped too)
     return {name: engine.simulate(step, system, dt, steps) for name, step in engine.integrators_for(system).items()}
 
 
-# --- the system ---
-
-
-def test_damped_spring_keeps_the_batched_contract():
-    system = damped()
-    q, v = np.array([[1.0, 0.0, 0.0], [0.5, 2.0, -1.0]]), np.array([[0.0, 1.0, 0.0], [3.0, 0.0, 1.0]])
-    assert system["force"](q, v).shape == (2, 3) and system["energy"](q, v).shape == (2,)
-    assert system["dissipation"](q, v).shape == (2,) and system["force"](q[0], v[0]).shape == (3,)
-    assert np.array_equal(system["force"](q, v)[1], system["force"](q[1], v[1]))
-    # a batch: every row is its own run, and its own exact solution
-    ensemble = ensemble_of("damped_spring", [0, 3])
-    positions, _, _ = engine.simulate(engine.integrators_for(ensemble)["implicit"], ensemble, 0.01, 50)
-    alone = engine.simulate(engine.integrators_for(damped(seed=3))["implicit"], damped(seed=3), 0.01, 50)[0]
-    assert np.array_equal(positions[:, 1], alone)
-    t = np.arange(51) * 0.01
-    assert np.array_equal(ensemble["exact"](ensemble["q0"], ensemble["v0"], t)[:, 1],
-                          damped(seed=3)["exact"](damped(seed=3)["q0"], damped(seed=3)["v0"], t))
-
-
-def test_run_knows_the_implicit_step_where_it_exists():
-    positions, _, _ = run("damped_spring", "implicit", steps=10)
-    assert np.array_equal(positions, ours("implicit", engine_damping.DAMPING, steps=10))
-    with pytest.raises(KeyError):
-        run("spring", "implicit", steps=10)
-
-
-def test_conservative_systems_are_offered_every_integrator_that_needs_nothing_more():
-    needs_nothing = [name for name, step in engine.INTEGRATORS.items() if not step.needs]
-    assert engine.CHAPTER_INTEGRATORS == ("euler", "semi_implicit", "rk4") and "implicit" not in needs_nothing
-    for name in (name for name, build in engine.SYSTEMS.items() if not build.facts["damped"]):
-        system = engine.build_system(name, np.random.default_rng(0))
-        offered = engine.integrators_for(system)
-        assert set(needs_nothing) <= set(offered) and "implicit" not in offered and "dforce_dv" not in system
-    assert set(engine.integrators_for(damped())) >= {*engine.CHAPTER_INTEGRATORS, "implicit"}
-
-
-@pytest.mark.parametrize("b", [0.5, 4.0, STIFF], ids=["under", "critical", "over"])
-def test_closed_form_matches_a_fine_rk4_run(b):
-    """The closed form in its three regimes against RK4 at a small step (dt b/m <= 0.3, inside its bound):
-    measured gaps 3e-13, 2e-13, 1.4e-9 m over 2 s; a wrong formula is off by 1e-2 or more."""
+def ours(name, b, steps=2000, dt=0.01):
     system = damped(b)
-    dt = 1e-3
-    positions, _, _ = engine.simulate(engine.rk4_step, system, dt, 2000)
-    exact = system["exact"](system["q0"], system["v0"], np.arange(2001) * dt)
-    assert np.abs(positions - exact).max() < 1e-8
+    return engine.simulate(engine.integrators_for(system)[name], system, dt, steps)[0]
 
 
-def test_closed_form_is_continuous_across_critical_damping():
+# --- the system and the step ---
+
+
+def test_closed_form_matches_a_fine_rk4_run_and_is_continuous_across_critical_damping():
+    """The closed form in its three regimes (b 0.5, 4, 300) against RK4 at a small step (dt b/m <= 0.3, inside its
+    bound): measured gaps 3e-13, 2e-13, 1.4e-9 m over 2 s; a wrong formula is off by 1e-2 or more."""
+    for b in (0.5, 4.0, STIFF):
+        system, dt = damped(b), 1e-3
+        positions, _, _ = engine.simulate(engine.rk4_step, system, dt, 2000)
+        assert np.abs(positions - system["exact"](system["q0"], system["v0"], np.arange(2001) * dt)).max() < 1e-8, b
     t = np.linspace(0.0, 5.0, 101)
     q0, v0 = np.array([1.0, 0.0, 0.0]), np.array([0.3, 0.0, 0.0])
     critical = engine_referee.damped_oscillator(q0, v0, 4.0, 1.0, 4.0, t)
@@ -89,88 +53,72 @@ def test_closed_form_is_continuous_across_critical_damping():
         assert np.abs(engine_referee.damped_oscillator(q0, v0, 4.0, 1.0, b, t) - critical).max() < 1e-6
 
 
-def test_implicit_step_without_damping_is_semi_implicit_euler():
-    spring = engine.build_system("spring", np.random.default_rng(0))
-    implicit = engine.simulate(lambda q, v, m, f, dt: engine_damping.implicit_step(q, v, m, f, dt, 0.0), spring,
-                               0.01, 500)
-    assert np.array_equal(implicit[0], engine.simulate(engine.semi_implicit_step, spring, 0.01, 500)[0])
-
-
-def test_implicit_step_solves_for_the_damping_at_the_new_velocity():
+def test_implicit_step_solves_for_the_damping_at_the_new_velocity_and_without_it_is_semi_implicit():
     """What the docstring says it solves: m (v' - v) / dt = -k q - b v' and q' = q + dt v', to round-off."""
     system, dt = damped(STIFF), 0.01
     q, v = np.array([0.7, -0.2, 0.1]), np.array([1.5, 0.0, -3.0])
     q1, v1 = engine.integrators_for(system)["implicit"](q, v, system["m"], system["force"], dt)
     assert np.allclose(system["m"] * (v1 - v) / dt, -4.0 * q - STIFF * v1, rtol=0, atol=1e-12)
     assert np.array_equal(q1, q + dt * v1)
+    spring = engine.build_system("spring", np.random.default_rng(0))
+    implicit = engine.simulate(lambda q, v, m, f, dt: engine_damping.implicit_step(q, v, m, f, dt, 0.0), spring,
+                               0.01, 500)
+    assert np.array_equal(implicit[0], engine.simulate(engine.semi_implicit_step, spring, 0.01, 500)[0])
 
 
-def test_energy_lost_matches_the_damper_work_at_each_integrators_order():
-    """(E0 - E(t)) - Simpson's integral of b|v|^2 shrinks like dt^1 for the Eulers and the implicit step,
-    dt^4 for RK4: the quadrature is order 4, so it does not cap RK4's order. Measured as the worst
-    mismatch at t = 1, 2, 3, 4, 5 s: at any single time the first-order error's coefficient can pass
-    through zero (semi-implicit's does near t = 4 s), which would make the ratio meaningless there."""
-    system = damped()
-    worst = {}
-    for dt in (0.02, 0.01, 0.005, 0.0025):
-        steps = round(5.0 / dt)
-        for name, (p, v, e) in run_all(system, dt, steps).items():
-            ends = [round(seconds / dt) for seconds in (1.0, 2.0, 3.0, 4.0, 5.0)]
-            audits = [engine_damping.against_exact(system, p[:n + 1], v[:n + 1], e[:n + 1], engine.kept_steps(n), dt)
-                      for n in ends]
-            worst.setdefault(name, []).append(max(abs(audit["work_mismatch"]) for audit in audits))
-    orders = {name: math.log2(m[-2] / m[-1]) for name, m in worst.items()}
-    for name, order in orders.items():  # each integrator at the order it declares
-        assert abs(order - engine.INTEGRATORS[name].order) < 0.05, orders
-
-
-def test_damped_physics_avoids_blas_libm_pow_and_numpy_transcendentals():
-    import inspect
-
-    for fn in (engine_damping.implicit_step, engine_referee.damped_oscillator, engine_damping.against_exact,
-               engine_damping.simpson):
-        code = "\n".join(line.split("#")[0] for line in inspect.getsource(fn).splitlines())
-        code = re.sub(r'""".*?"""', "", code, flags=re.S)
-        for trap in (" @ ", "np.dot", "linalg", "**", "np.sum", ".sum(", "np.exp", "np.sin", "np.cos"):
-            assert trap not in code, f"{fn.__name__} uses {trap.strip()}"
-
-
-def test_simpson_is_exact_on_cubics_with_either_parity():
+def test_position_error_and_energy_audit_converge_at_each_integrators_order():
+    """Against the closed form, every integrator offered on the damped spring (a new one too), over dt 0.02 ..
+    0.0025: the final position error at 2 s, and (E0 - E(t)) - Simpson's integral of b|v|^2, which shrinks like
+    dt^1 for the Eulers and the implicit step and dt^4 for RK4 (the quadrature is order 4, so it does not cap
+    RK4's order). The audit is the worst mismatch at t = 1, 2, 3, 4, 5 s: at any single time the first-order
+    error's coefficient can pass through zero (semi-implicit's does near t = 4 s). Simpson's rule is exact on
+    cubics, with an even or odd number of intervals."""
     for n in (6, 7):
         t = np.linspace(0.0, 2.0, n + 1)
         assert math.isclose(engine_damping.simpson(t * t * t - t, t[1] - t[0]), 4.0 - 2.0, rel_tol=1e-13)
-
-
-def test_position_error_converges_at_each_integrators_order():
-    system, seconds = damped(), 2.0
-    errors = {}
-    for dt in (0.01, 0.005, 0.0025):
-        steps = round(seconds / dt)
+    system = damped()
+    errors, worst = {}, {}
+    for dt in (0.02, 0.01, 0.005, 0.0025):
+        steps = round(5.0 / dt)
         for name, (p, v, e) in run_all(system, dt, steps).items():
-            audit = engine_damping.against_exact(system, p, v, e, engine.kept_steps(steps), dt)
-            errors.setdefault(name, []).append(audit)
-    for name, error in errors.items():  # each integrator at the order it declares
-        shrink = error[-2]["err_final"] / error[-1]["err_final"]
-        assert abs(math.log2(shrink) - engine.INTEGRATORS[name].order) < 0.15, (name, shrink)
+            audits = [engine_damping.against_exact(system, p[:n + 1], v[:n + 1], e[:n + 1], engine.kept_steps(n), dt)
+                      for n in (round(seconds / dt) for seconds in (1.0, 2.0, 3.0, 4.0, 5.0))]
+            errors.setdefault(name, []).append(audits[1]["err_final"])
+            worst.setdefault(name, []).append(max(abs(audit["work_mismatch"]) for audit in audits))
+    wrong = []
+    for what, within, series in (("position error at 2 s", 0.15, errors), ("the damper's work", 0.05, worst)):
+        for name, values in series.items():
+            order, declared = math.log2(values[-2] / values[-1]), engine.INTEGRATORS[name].order
+            if abs(order - declared) >= within:
+                wrong.append(f"{name} declares order {declared} and measured {order:.3f} ({what})")
+    assert not wrong, ("; ".join(wrong) + " on the damped spring: declare the order it has, or needs=['velocity_free']"
+                       " if that order holds only without velocity forces")
 
 
-# --- the run: report and metrics.json ---
+# --- the run: report and metrics.json (refused flags: tests/test_cli.py) ---
 
 
-def test_stiff_run_reports_who_stayed_bounded(tmp_path):
-    result = run_engine("--system", "damped_spring", "--damping", STIFF, "--no-rerun", "--out", tmp_path)
-    assert result.returncode == 0 and result.stderr == ""
-    metrics = json.loads((tmp_path / "metrics.json").read_text())
+def test_stiff_and_default_runs_report_who_stayed_bounded(tmp_path, capsys):
+    assert engine.main(["--system", "damped_spring", "--damping", f"{STIFF:g}", "--no-rerun", "--out",
+                        str(tmp_path / "stiff")]) == 0
+    out = capsys.readouterr()
+    metrics = json.loads((tmp_path / "stiff" / "metrics.json").read_text())
     assert metrics["damping"] == STIFF and set(metrics["solution"]) == set(engine.integrators_for(damped()))
     assert {name: metrics["solution"][name]["bounded"] for name in ("euler", "semi_implicit", "rk4", "implicit")} == {
         "euler": False, "semi_implicit": False, "rk4": False, "implicit": True}
-    assert metrics["solution"]["implicit"]["err_max"] < 1e-4
-    assert "euler           diverged" in result.stdout and "over-damped" in result.stdout
+    assert metrics["solution"]["implicit"]["err_max"] < 1e-4 and out.err == ""
+    assert "euler           diverged" in out.out and "over-damped" in out.out
+    assert engine.main(["--system", "damped_spring", "--smoke", "--no-rerun", "--out", str(tmp_path / "b")]) == 0
+    solution = json.loads((tmp_path / "b" / "metrics.json").read_text())["solution"]
+    assert all(d["bounded"] for d in solution.values())
+    # the ordering the chapter measures holds here too, against the closed form instead of energy
+    assert solution["rk4"]["err_max"] < solution["implicit"]["err_max"] < solution["euler"]["err_max"]
 
 
 def test_blew_up_at_step_n_is_one_step_named_the_same_everywhere(tmp_path, capsys):
     """Exercise 6's b = 250 (issue 24): the step a run blew up at is the step its energy overflowed (886; its state
-    stays finite until step 1,748), and the table, metrics.json, the recording and exercise 6 all name that one."""
+    stays finite until step 1,748: the energy squares the speed), and the table, metrics.json, the recording and
+    exercise 6 all name that one."""
     pytest.importorskip("rerun.chunk", reason="rerun-sdk is a core dependency; install the project")
     from test_recording import column, read_recording
 
@@ -182,40 +130,17 @@ def test_blew_up_at_step_n_is_one_step_named_the_same_everywhere(tmp_path, capsy
     key = " ".join(column(entities["/phase/key"], "Points3D:labels")[0])
     exercise = ex6_stiff_damping.measure()
     for name in ("euler", "semi_implicit"):  # both Eulers blow up together on this spring
-        positions, _, energies = engine.simulate(engine.INTEGRATORS[name], damped(b), 0.01, 2000)
-        assert np.isfinite(positions[1700]).all(), "the state is still finite long after its energy overflowed"
+        positions, velocities, energies = engine.simulate(engine.INTEGRATORS[name], damped(b), 0.01, 2000)
+        if name == "semi_implicit":
+            assert np.argmin(np.isfinite(positions).all(axis=-1) & np.isfinite(velocities).all(axis=-1)) == 1748
         step = int(np.flatnonzero(~np.isfinite(energies))[0])
         assert step == 886 == metrics["drift"][name]["energy_overflow_step"] == exercise[name][1]
+        assert engine.energy_drift(energies)["energy_overflow_step"] == 886
         assert re.search(rf"{name} +diverged: energy overflowed at step 886\n", table)
         assert "energy overflowed at step 886" in key
         assert column(entities[f"/position_error/{name}"], "SeriesLines:names")[0][0].endswith(
             "energy overflowed at step 886")
     assert metrics["drift"]["rk4"]["energy_overflow_step"] is None and exercise["rk4"][1] is None
-
-
-def test_default_damping_is_bounded_for_all_and_two_runs_write_the_same_bytes(tmp_path):
-    """Same bytes also with numpy's SIMD levels switched off: the closed form uses math's exp/cos/sin,
-    because numpy's own pick a CPU-specific kernel whose last bits differ."""
-    first, second = tmp_path / "a", tmp_path / "b"
-    simd_off = {**os.environ, "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR X86_V3"}
-    for out, env in ((first, None), (second, simd_off)):
-        assert run_engine("--system", "damped_spring", "--smoke", "--no-rerun", "--out", out, env=env).returncode == 0
-    assert (first / "metrics.json").read_bytes() == (second / "metrics.json").read_bytes()
-    solution = json.loads((first / "metrics.json").read_text())["solution"]
-    assert all(d["bounded"] for d in solution.values())
-    # the ordering the chapter measures holds here too, against the closed form instead of energy
-    assert solution["rk4"]["err_max"] < solution["implicit"]["err_max"] < solution["euler"]["err_max"]
-
-
-@pytest.mark.parametrize("args, complaint", [
-    (["--system", "orbit", "--damping", "3"], "only --system damped_spring has a damper"),
-    (["--system", "spring", "--integrator", "implicit"], "implicit needs a velocity-dependent force"),
-    (["--system", "damped_spring", "--damping", "-1"], "--damping must be a positive, finite number"),
-])
-def test_misplaced_damping_flags_are_one_line_and_exit_2(args, complaint, tmp_path):
-    result = run_engine(*args, "--no-rerun", "--out", tmp_path / "out")
-    assert result.returncode == 2 and complaint in result.stderr and len(result.stderr.splitlines()) == 1
-    assert not (tmp_path / "out").exists()
 
 
 # --- the stability map ---
@@ -237,34 +162,20 @@ def test_closed_form_bounds_are_the_eigenvalues_of_the_engines_one_step_matrix(n
     assert checked > 60
 
 
-def test_euler_needs_damping_and_the_implicit_step_needs_no_bound_on_it():
-    euler = stability_map.analytic_interval("euler", 0.5)
-    assert euler[0] == 0.25 and euler[0] > 0  # a lower bound: too little damping and it grows
-    assert stability_map.analytic_interval("implicit", 0.5) == (0.0, math.inf)
-    assert stability_map.analytic_interval("implicit", 4.0) == (6.0, math.inf)  # stiffness still bounds it
-
-
-def agree(measured, analytic):
-    if measured is None or analytic is None:
-        return measured is analytic
-    return all(m == a or abs(m - a) <= 1e-3 * abs(a) + 1e-6 for m, a in zip(measured, analytic, strict=True))
-
-
-@pytest.mark.slow
-def test_measured_bounds_match_the_analytic_ones_on_the_courses_spring():
-    """The course's spring at dt 0.01 (w = 0.02), every integrator; the slow test does the whole table."""
-    ws = [0.02]
-    for name in stability_map.NAMES:
-        quick = stability_map.measured_intervals(name, ws, steps=2000, grid_points=61, bisections=14)
-        for w, measured in zip(ws, quick, strict=True):
-            assert agree(measured, stability_map.analytic_interval(name, w)), (name, w, measured)
-
-
 @pytest.mark.slow
 def test_the_whole_stability_table_agrees():
-    for w, measured, analytic in stability_map.stability_table():
-        for name in stability_map.NAMES:
-            assert agree(measured[name], analytic[name]), (name, w, measured[name], analytic[name])
+    """Measured bounds (runs of the engine's step, bisected) against the analytic ones to 1e-3, every integrator,
+    every stiffness of the table, the course's spring at dt 0.01 (w = 0.02) included. Runs half as long and a
+    grid half as fine as the printed table's (4.6 s of CPU instead of 13.9) still agree everywhere."""
+    def agree(measured, analytic):
+        if measured is None or analytic is None:
+            return measured is analytic
+        return all(m == a or abs(m - a) <= 1e-3 * abs(a) + 1e-6 for m, a in zip(measured, analytic, strict=True))
+
+    for name in stability_map.NAMES:
+        ws = stability_map.STIFFNESSES
+        for w, measured in zip(ws, stability_map.measured_intervals(name, ws, 2000, 61, 14), strict=True):
+            assert agree(measured, stability_map.analytic_interval(name, w)), (name, w, measured)
 
 
 # --- parity with MuJoCo 3.10.0 ---
@@ -272,90 +183,64 @@ def test_the_whole_stability_table_agrees():
 DAMPINGS = [0.5, 1.3, 4.0, 37.0, STIFF]
 
 
-def mujoco_models():
+@pytest.fixture
+def models():
     pytest.importorskip("mujoco", reason="MuJoCo parity needs the 'mujoco' extra: pip install -e '.[mujoco]'")
     import mujoco_models
 
     return mujoco_models
 
 
-def ours(name, b, steps=2000, dt=0.01):
-    system = damped(b)
-    return engine.simulate(engine.integrators_for(system)[name], system, dt, steps)[0]
-
-
-@pytest.mark.parametrize("b", DAMPINGS)
-def test_implicit_step_is_mujocos_euler_and_implicitfast_to_the_bit(b):
-    """mj_EulerSkip with damping and mj_implicitSkip for implicitfast both factorize M + h b (mj_factorI
-    stores 1 / diagonal) and multiply by it (mj_solveLD): our `force * (1 / (m - dt dforce_dv))`."""
-    models = mujoco_models()
-    mine = ours("implicit", b)
-    assert np.array_equal(mine, models.damped_trajectory("Euler", b)[0])
-    assert np.array_equal(mine, models.damped_trajectory("implicitfast", b)[0])
-
-
-def test_implicit_step_is_mujocos_implicit_to_the_last_ulps_because_it_divides():
-    """mjINT_IMPLICIT solves with mju_solveLUSparse, which divides by the diagonal: x / d, where we
-    (and Euler, implicitfast) compute x * (1 / d). The two differ in the last bit now and then."""
-    models = mujoco_models()
+def test_implicit_step_is_mujocos_euler_and_implicitfast_to_the_bit_and_its_implicit_to_the_last_ulps(models):
+    """mj_EulerSkip with damping and mj_implicitSkip for implicitfast both factorize M + h b (mj_factorI stores
+    1 / diagonal) and multiply by it (mj_solveLD): our `force * (1 / (m - dt dforce_dv))`. mjINT_IMPLICIT solves
+    with mju_solveLUSparse, which divides, x / d: the same step written with a division is it to the bit, and the
+    two differ in the last bit now and then (seen at some damping here, or "last ulps" would be a claim unseen)."""
     differing = 0
     for b in DAMPINGS:
+        mine, system = ours("implicit", b), damped(b)
+        assert np.array_equal(mine, models.damped_trajectory("Euler", b)[0])
+        assert np.array_equal(mine, models.damped_trajectory("implicitfast", b)[0])
         theirs = models.damped_trajectory("implicit", b)[0]
-        gap = np.abs(ours("implicit", b) - theirs).max()
-        assert gap <= 4 * np.finfo(float).eps * np.abs(theirs).max()
-        differing += gap > 0
-        # the same step written with a division is MuJoCo's implicit to the bit
-        system = damped(b)
+        assert np.abs(mine - theirs).max() <= 4 * np.finfo(float).eps * np.abs(theirs).max()
+        differing += np.abs(mine - theirs).max() > 0
 
         def dividing(q, v, m, force, dt, system=system):
             v_next = v + dt * (force(q, v) / (m - dt * system["dforce_dv"]))
             return q + dt * v_next, v_next
 
         assert np.array_equal(engine.simulate(dividing, system, 0.01, 2000)[0], theirs)
-    assert differing > 0  # otherwise the "last ulps" would be a claim we never saw
+    assert differing > 0
 
 
 @pytest.mark.parametrize("b", [0.5, 4.0])
-def test_explicit_damping_is_not_mujocos_euler(b):
-    models = mujoco_models()
-    assert np.abs(ours("semi_implicit", b) - models.damped_trajectory("Euler", b)[0]).max() > 1e-3
-
-
-@pytest.mark.parametrize("b", [0.5, 4.0])
-def test_with_eulerdamp_disabled_mujocos_euler_is_semi_implicit_again(b):
+def test_explicit_damping_is_mujocos_euler_only_with_eulerdamp_disabled(b, models):
     """mjDSBL_EULERDAMP turns mj_EulerSkip's damping branch off: the damper is then an explicit force."""
-    models = mujoco_models()
+    assert np.abs(ours("semi_implicit", b) - models.damped_trajectory("Euler", b)[0]).max() > 1e-3
     assert np.array_equal(ours("semi_implicit", b), models.damped_trajectory("Euler", b, eulerdamp=False)[0])
 
 
-def test_stiff_damping_mujocos_euler_creeps_to_rest_while_explicit_damping_and_rk4_blow_up():
-    models = mujoco_models()
+def test_stiff_damping_mujocos_euler_creeps_to_rest_while_rk4_blows_up_and_leaves_no_log_behind(tmp_path, models,
+                                                                                                  monkeypatch):
+    """At b = 300 MuJoCo's RK4 (no implicit damping) blows up, warns, resets and writes MUJOCO_LOG.TXT where it
+    runs: our runs keep it in a folder that goes away with them."""
+    import mujoco
+
     euler, reset_at = models.damped_trajectory("Euler", STIFF)
     assert reset_at is None and np.all(np.diff(euler[:, 0]) < 0) and euler[-1, 0] > 0  # over-damped creep
     assert not np.isfinite(ours("semi_implicit", STIFF)).all()
-    rk4, reset_at = models.damped_trajectory("RK4", STIFF)
-    assert reset_at is not None  # MuJoCo's RK4 has no implicit damping: it blows up, warns and resets
-    mine = ours("rk4", STIFF)[:reset_at]
-    assert np.abs(mine - rk4[:reset_at]).max() <= 1e-13 * np.abs(mine).max()
-
-
-def test_mujoco_warnings_leave_no_log_file_behind(tmp_path, monkeypatch):
-    models = mujoco_models()
-    import mujoco
-
     monkeypatch.chdir(tmp_path)
-    # MuJoCo does write one where it runs, when it warns ...
-    system = damped(STIFF)
-    model = mujoco.MjModel.from_xml_string(models.damped_xml("RK4", 0.01, system))
-    data = mujoco.MjData(model)
-    data.qpos[0] = 1.0
-    with models.in_scratch_folder() as scratch:
-        mujoco.mj_step(model, data, nstep=200)
-        assert (scratch / "MUJOCO_LOG.TXT").exists()
-    # ... and our runs keep it in a folder that goes away with them
-    assert models.damped_trajectory("RK4", STIFF)[1] is not None
+    rk4, reset_at = models.damped_trajectory("RK4", STIFF)
+    mine = ours("rk4", STIFF)[:reset_at]
+    assert reset_at is not None and np.abs(mine - rk4[:reset_at]).max() <= 1e-13 * np.abs(mine).max()
     assert list(tmp_path.iterdir()) == [] and Path.cwd() == tmp_path
     assert not (REPO / "MUJOCO_LOG.TXT").exists() and not (REPO / "tests" / "MUJOCO_LOG.TXT").exists()
+    model = mujoco.MjModel.from_xml_string(models.damped_xml("RK4", 0.01, damped(STIFF)))
+    data = mujoco.MjData(model)
+    data.qpos[0] = 1.0
+    with models.in_scratch_folder() as scratch:  # ... and MuJoCo does write one where it runs, when it warns
+        mujoco.mj_step(model, data, nstep=200)
+        assert (scratch / "MUJOCO_LOG.TXT").exists()
 
 
 # --- exercise 6 ---
@@ -364,58 +249,46 @@ FIGURE = re.compile(r"\de[-+]\d|%|\d\.\d{2}")  # a measured number: 3.2e-04, 22.
 
 
 def run_ex6(*args, cwd):
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
-    return subprocess.run([sys.executable, "-m", "exercises.ex6_stiff_damping", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=120)
+    return subprocess.run([sys.executable, "-m", "exercises.ex6_stiff_damping", *args], cwd=cwd, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True)
 
 
-def test_ex6_asks_first_and_gives_nothing_away(tmp_path):
+def test_ex6_asks_first_gives_nothing_away_and_refuses_an_unknown_name_in_one_line(tmp_path):
+    """Its graded run (`--predict rk4, implicit --more`) is ANSWERS.md's, which tests/test_docs.py reruns."""
     bare = run_ex6(cwd=tmp_path)
-    assert bare.returncode == 0
     question, answers, blank, how = bare.stdout.splitlines()
-    assert question.endswith("?") and "b = 250" in question and blank == "" and "--predict" in how
-    helped = run_ex6("--help", cwd=tmp_path)
-    for text in (bare.stdout, helped.stdout):
+    assert bare.returncode == 0 and question.endswith("?") and "b = 250" in question and blank == ""
+    assert "--predict" in how
+    for text in (bare.stdout, run_ex6("--help", cwd=tmp_path).stdout):
         assert not FIGURE.search(text)
         assert "bounded are" not in text and "2.785" not in text and "yes" not in text  # no verdict, no bound
-    assert list(tmp_path.iterdir()) == []
-
-
-def test_ex6_grades_the_set_of_bounded_integrators(tmp_path):
-    result = run_ex6("--predict", "rk4,", "implicit", "--more", cwd=tmp_path)  # `--predict rk4, implicit`, split
-    assert result.returncode == 0, result.stderr
-    assert "Right: the ones that stay bounded are rk4, implicit." in result.stdout
-    assert "d->qH[m->M_rowadr[i] + m->M_rownnz[i] - 1] += m->opt.timestep * damp_deriv;" in result.stdout
-    assert list(tmp_path.iterdir()) == []
-
-
-@pytest.mark.parametrize("said, right", [("Implicit and RK4", True), ("implicit", False), ("none", False),
-                                         ("euler semi-implicit rk4", False), ("Semi implicit, RK4", False),
-                                         ("rk4,implicit", True), ("RK 4 and implicit Euler", True),
-                                         ("rk-4, semi-implicit Euler", False)])
-def test_ex6_reads_predictions_as_typed(said, right):
-    parsed = ex6_stiff_damping.SomeOf(ex6_stiff_damping.NAMES).parse(said)
-    assert (parsed == {"rk4", "implicit"}) == right
-    assert said != "Semi implicit, RK4" or parsed == {"semi_implicit", "rk4"}
-    assert said != "rk-4, semi-implicit Euler" or parsed == {"semi_implicit", "rk4"}  # not euler as well
-
-
-def test_ex6_reads_names_of_several_words_as_one_name():
-    some = ex6_stiff_damping.SomeOf(ex6_stiff_damping.NAMES)
-    assert some.parse("Implicit Euler") == {"implicit"} and some.parse("explicit Euler") == {"euler"}
-    assert some.parse("symplectic Euler") == {"semi_implicit"} and some.parse("none of them") == frozenset()
-    with pytest.raises(ValueError, match="'none' goes alone"):
-        some.parse("none, rk4")
-
-
-def test_ex6_refuses_an_unknown_name_in_one_line(tmp_path):
     result = run_ex6("--predict", "rk4, verlet", cwd=tmp_path)
     assert result.returncode == 2 and len(result.stderr.splitlines()) == 1 and result.stdout == ""
     assert "'verlet' is not an integrator here: answer with the ones that stay bounded, from euler," in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("said, parsed", [
+    ("Implicit and RK4", "rk4 implicit"), ("implicit", "implicit"), ("none", ""), ("none of them", ""),
+    ("euler semi-implicit rk4", "euler semi_implicit rk4"), ("Semi implicit, RK4", "semi_implicit rk4"),
+    ("rk4,implicit", "rk4 implicit"), ("RK 4 and implicit Euler", "rk4 implicit"), ("Implicit Euler", "implicit"),
+    ("rk-4, semi-implicit Euler", "semi_implicit rk4"), ("explicit Euler", "euler"),
+    ("symplectic Euler", "semi_implicit"), ("none, rk4", None)])
+def test_ex6_reads_predictions_as_typed_names_of_several_words_as_one_name(said, parsed):
+    some = ex6_stiff_damping.SomeOf(ex6_stiff_damping.NAMES)
+    if parsed is None:
+        with pytest.raises(ValueError, match="'none' goes alone"):
+            some.parse(said)
+    else:
+        assert some.parse(said) == set(parsed.split())
 
 
 def test_ex6_answer_is_the_stability_map_at_its_damping():
-    """The measured verdicts equal what the one-step eigenvalues say at c = 2.5, w = 0.02."""
+    """The measured verdicts equal what the one-step eigenvalues say at c = 2.5, w = 0.02. Explicit Euler needs
+    damping (a lower bound), the implicit step no bound on it, though stiffness still bounds it."""
+    assert stability_map.analytic_interval("euler", 0.5)[0] == 0.25
+    assert stability_map.analytic_interval("implicit", 0.5) == (0.0, math.inf)
+    assert stability_map.analytic_interval("implicit", 4.0) == (6.0, math.inf)
     measured = {name: bounded for name, (bounded, _, _) in ex6_stiff_damping.measure().items()}
     c, w = ex6_stiff_damping.DT * ex6_stiff_damping.DAMPING, ex6_stiff_damping.DT * 2.0
     analytic = {}
@@ -425,4 +298,3 @@ def test_ex6_answer_is_the_stability_map_at_its_damping():
     assert measured == analytic == {"euler": False, "semi_implicit": False, "rk4": True, "implicit": True}
     grid = ex6_stiff_damping.bounded_map()
     assert grid["implicit"][-1].all() and not grid["implicit"][0, :3].any()  # any damping; not any stiffness
-

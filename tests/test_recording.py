@@ -1,9 +1,8 @@
-"""The .rrd recording, read back with Rerun's own reader and checked against the run.
-
-What pytest cannot see without a screen (how the views look) tools/screenshots.py shows in the real
-viewer; here we check what the viewer is given: the moving bodies' values, each plot's numbers, and
-the blueprint's views and settings.
+"""The .rrd recording, read back with Rerun's own reader: what the viewer is given (the bodies' values, each plot's
+numbers, the blueprint's views and settings). How it looks without a screen: tools/screenshots.py.
 """
+
+import json
 
 import numpy as np
 import pytest
@@ -11,14 +10,13 @@ import pytest
 import engine
 import engine_ensembles
 import engine_recording
-import engine_referee
-from conftest import ensemble_of
 from curriculum.common import recording as course
 
 rerun_chunk = pytest.importorskip("rerun.chunk", reason="rerun-sdk is a core dependency; install the project")
 rrb = pytest.importorskip("rerun.blueprint")
 
 STEPS, DT = 2000, 0.01
+SPATIAL = {"orbit": "orbit", "spring": "phase", "damped_spring": "phase"}  # the 3D view each system opens on
 
 
 def packed(rgb):
@@ -45,12 +43,14 @@ def read_recording(path):
     return recording, entities, settings
 
 
+def read_bytes(data, tmp_path):
+    (tmp_path / "made.rrd").write_bytes(data)
+    return read_recording(tmp_path / "made.rrd")
+
+
 def column(batches, name):
     """A column's values over all the entity's chunks, in step order."""
-    rows = []
-    for batch in batches:
-        if name in batch.schema.names:
-            rows += batch.column(name).to_pylist()
+    rows = [row for batch in batches if name in batch.schema.names for row in batch.column(name).to_pylist()]
     assert rows, f"no column {name}"
     return rows
 
@@ -66,9 +66,13 @@ def views_of(settings):
     for path, fields in settings.items():
         if "ViewBlueprint:class_identifier" in fields:
             props = {k: v for sub, f in settings.items() if sub.startswith(path + "/") for k, v in f.items()}
-            key = (fields["ViewBlueprint:class_identifier"], fields["ViewBlueprint:space_origin"])
-            views[key] = props
+            views[(fields["ViewBlueprint:class_identifier"], fields["ViewBlueprint:space_origin"])] = props
     return views
+
+
+def frame(props):  # (target, half): where the camera looks, and the least it frames either side (half its height)
+    target, eye = np.array(props["EyeControls3D:look_target"]), np.array(props["EyeControls3D:position"])
+    return target, (eye[2] - target[2]) / 2.0
 
 
 @pytest.fixture(scope="module")
@@ -84,98 +88,27 @@ def recorded(tmp_path_factory):
     return cases
 
 
-def test_application_id_is_valid_and_there_is_one_recording(recorded):
-    recording, entities, _, _, _ = recorded["orbit"]
-    assert recording.application_id == "zero2robot-ch3_3-engine"
-    assert "/orbit/attractor" in entities
-
-
-@pytest.mark.parametrize("system_name", ["orbit", "spring"])
-def test_each_body_travels_its_run_step_by_step_along_its_whole_path(recorded, system_name):
-    _, entities, _, _, runs = recorded[system_name]
-    view = {"orbit": "orbit", "spring": "phase"}[system_name]
-    looks = course.looks(runs)
-    for name, (positions, velocities, _) in runs.items():
-        # the orbit's bodies move in space; the spring's in the phase plane (x, v_x)
-        shown = positions if system_name == "orbit" else np.stack(
-            [positions[:, 0], velocities[:, 0], np.zeros(STEPS + 1)], axis=1)
-        body = entities[f"/{view}/{name}/body"]
-        assert column(body, "step") == list(range(STEPS + 1)), "one position per step, on the step timeline"
-        travelled = np.concatenate(column(body, "Points3D:positions"))
-        np.testing.assert_array_equal(travelled[:, :2], shown[:, :2].astype(np.float32))
-        lift = travelled[:, 2] - shown[:, 2].astype(np.float32)  # drawn a hair above or below the others
-        assert np.ptp(lift) < 1e-6, "the same lift at every step"
-        assert abs(lift[0]) < 0.01 * np.ptp(shown[:, :2], axis=0).max(), "a hair: under 1% of the path's size"
-        assert column(body, "Points3D:colors")[0] == [packed(looks[name].colour)]
-
-        (trail,) = column(entities[f"/{view}/{name}/trail"], "LineStrips3D:strips")[0]
-        np.testing.assert_array_equal(np.array(trail), travelled)
-        assert column(entities[f"/{view}/{name}/trail"], "LineStrips3D:colors")[0] == [packed(looks[name].colour)]
-
-
-def test_a_batchs_exact_motion_is_each_members_own():
-    """The exact motions themselves are tested against their force laws in test_closed_form.py."""
-    times = np.linspace(0.0, 300.0, 13)
-    ensemble = ensemble_of("orbit", [0, 1, 2])
-    batched = ensemble["exact"](ensemble["q0"], ensemble["v0"], times)
-    for i in range(3):
-        member = engine.build_system("orbit", np.random.default_rng(i))
-        np.testing.assert_array_equal(batched[:, i], member["exact"](member["q0"], member["v0"], times))
-
-
-@pytest.mark.parametrize("system_name", ["orbit", "spring", "damped_spring"])
-def test_the_key_names_every_integrator_in_its_colour_beside_the_paths_and_in_the_frame(recorded, system_name):
-    """The labels stand in a column right of every path, one row apart: never on a trail (RK4's on the spring's
-    red trails), never piled on one another (the damped spring's four at the origin)."""
-    _, entities, settings, _, runs = recorded[system_name]
-    view = {"orbit": "orbit", "spring": "phase", "damped_spring": "phase"}[system_name]
-    looks = course.looks(runs)
-    key = entities[f"/{view}/key"]
-    assert column(key, "Points3D:labels")[0] == [look.label for look in looks.values()]
-    assert column(key, "Points3D:colors")[0] == [packed(look.colour) for look in looks.values()]
-    spots = np.array(column(key, "Points3D:positions")[0])
-    trails = np.concatenate([np.array(column(entities[f"/{view}/{name}/trail"], "LineStrips3D:strips")[0][0])
-                             for name in runs])
-    span = np.ptp(trails[:, :2], axis=0).max()
-    assert (spots[:, 0] > trails[:, 0].max() + 0.1 * span).all(), "right of every path, clear of the trails"
-    assert (np.diff(spots[:, 1]) < -0.05 * span).all(), "one row per name, top to bottom, apart"
-    props = views_of(settings)[("3D", view)]
-    target, eye = np.array(props["EyeControls3D:look_target"]), np.array(props["EyeControls3D:position"])
-    half = (eye[2] - target[2]) / 2.0  # the least the camera frames either side of its target, from its height
-    assert (np.abs(spots[:, :2] - target[:2]) < half).all(), "the key is inside the framed view"
-
-
-def test_orbit_position_error_is_measured_against_keplers_exact_orbit(recorded):
-    _, entities, _, system, runs = recorded["orbit"]
-    steps = np.arange(STEPS + 1)
-    exact = engine_referee.kepler_orbit(system["q0"], system["v0"], steps * DT, system["mu"])  # Kepler's equation
-
-
-    exact = system["exact"](system["q0"], system["v0"], steps * DT)  # Kepler's equation, solved in engine.py
-    finals = {}
-    for name, (positions, _, _) in runs.items():
-        series = entities[f"/position_error/{name}"]
-        miss = np.sqrt(np.sum((positions - exact) ** 2, axis=1))
-        logged_steps = column(series, "step")
-        assert logged_steps == [i for i in steps if miss[i] > 1e-14], "only step 0, where the error is 0, has no log"
-        logged = np.ravel(column(series, "Scalars:scalars"))
-        np.testing.assert_allclose(logged[1:], np.log10(miss[logged_steps[1:]]), atol=1e-3)
-        assert column(series, "SeriesLines:colors")[0] == [packed(course.looks(runs)[name].colour)]
-        finals[name] = logged[-1]
-    # metres off after 20 s: Euler by its whole radius, semi-implicit by millimetres, RK4 by nanometres
-    assert finals["euler"] > -0.5 and -4 < finals["semi_implicit"] < -1 and finals["rk4"] < -7
-
-
-@pytest.mark.parametrize("system_name", ["orbit", "spring"])
-def test_energy_error_is_the_log_of_the_relative_drift_step_for_step(recorded, system_name):
-    _, entities, _, _, runs = recorded[system_name]
-    for name, (_, _, energies) in runs.items():
-        rel = np.abs(energies - energies[0]) / abs(energies[0])
-        series = entities[f"/energy_error/{name}"]
-        steps = column(series, "step")
-        assert steps == [i for i in range(STEPS + 1) if rel[i] > 0]  # exact zeros have no logarithm
-        np.testing.assert_array_equal(np.ravel(column(series, "Scalars:scalars")), np.log10(rel[steps]))
-        assert column(series, "SeriesLines:names")[0] == [course.looks(runs)[name].label]
+@pytest.mark.parametrize("system_name, series", [("orbit", "position_error"), ("damped_spring", "position_error"),
+                                                 ("orbit", "energy_error"), ("spring", "energy_error")])
+def test_each_error_is_the_log_of_its_truth_step_for_step(recorded, system_name, series):
+    """log10 of the distance to the exact motion (Kepler's equation for the orbit, the closed form for the damped
+    spring, the implicit step's too), or of the relative energy drift; exact zeros have no logarithm."""
+    _, entities, _, system, runs = recorded[system_name]
+    exact, finals = system["exact"](system["q0"], system["v0"], np.arange(STEPS + 1) * DT), {}
+    for name, (positions, _, energies) in runs.items():
+        truth = (np.sqrt(np.sum((positions - exact) ** 2, axis=1)) if series == "position_error"
+                 else np.abs(energies - energies[0]) / abs(energies[0]))
+        logged = entities[f"/{series}/{name}"]
+        steps = column(logged, "step")
+        assert steps == [i for i in range(STEPS + 1) if truth[i] > 1e-14], "only exact zeros have no log"
+        np.testing.assert_allclose(np.ravel(column(logged, "Scalars:scalars")), np.log10(truth[steps]),
+                                   rtol=1e-12 if series == "position_error" else 0)
+        look = course.looks(runs)[name]
+        assert column(logged, "SeriesLines:colors")[0] == [packed(look.colour)]
+        assert column(logged, "SeriesLines:names")[0] == [look.label]
+        finals[name] = np.log10(truth[-1])
+    if (system_name, series) == ("orbit", "position_error"):  # metres off after 20 s: Euler by its whole radius,
+        assert finals["euler"] > -0.5 and -4 < finals["semi_implicit"] < -1 and finals["rk4"] < -7  # mm, nm
 
 
 def test_freefall_shows_the_signed_energy_change_and_the_height(recorded):
@@ -207,7 +140,10 @@ EXPECTED_VIEWS = {
 
 @pytest.mark.parametrize("system_name", engine.SYSTEMS)
 def test_each_system_opens_on_its_own_views_and_every_plot_on_the_whole_run(recorded, system_name):
-    _, entities, settings, _, _ = recorded[system_name]
+    """Its views, every plot over all the steps with every value on screen, the side panels folded, and the file
+    opening on the last step."""
+    recording, entities, settings, _, _ = recorded[system_name]
+    assert recording.application_id == "zero2robot-ch3_3-engine"
     views = views_of(settings)
     if system_name in EXPECTED_VIEWS:
         assert set(views) == EXPECTED_VIEWS[system_name], "the views this system's lesson needs, and no others"
@@ -222,28 +158,8 @@ def test_each_system_opens_on_its_own_views_and_every_plot_on_the_whole_run(reco
                                  for path, batches in entities.items() if path.startswith(f"/{origin}/")])
         assert low < values.min() and values.max() < high, f"{origin}: every value on screen"
         assert props["PlotInteraction:tooltip_mode"] == rrb.components.TooltipMode.All.value
-
-
-@pytest.mark.parametrize("system_name", ["orbit", "spring", "damped_spring"])
-def test_the_camera_looks_down_on_every_path_and_the_key(recorded, system_name):
-    """Centred on the box around every trail, the key and the axes' names, and high enough to frame it."""
-    _, entities, settings, _, _ = recorded[system_name]
-    origin = {"orbit": "orbit", "spring": "phase", "damped_spring": "phase"}[system_name]
-    props = views_of(settings)[("3D", origin)]
-    drawn = [np.array(strip) for path, b in entities.items() if path.endswith("/trail") or path == f"/{origin}/axes"
-             for strip in column(b, "LineStrips3D:strips")[0]]
-    points = np.concatenate([*drawn, np.array(column(entities[f"/{origin}/key"], "Points3D:positions")[0])])
-    target, eye = np.array(props["EyeControls3D:look_target"]), np.array(props["EyeControls3D:position"])
-    np.testing.assert_allclose(target[:2], (points.min(axis=0)[:2] + points.max(axis=0)[:2]) / 2, atol=1e-6)
-    span = (points.max(axis=0) - points.min(axis=0))[:2].max()
-    assert eye[2] - target[2] >= span, "high enough above the plane that the widest path fits the view"
-
-
-@pytest.mark.parametrize("system_name", engine.SYSTEMS)
-def test_side_panels_are_folded_and_the_file_opens_on_the_last_step(recorded, system_name):
-    _, _, settings, _, _ = recorded[system_name]
-    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    assert settings["/selection_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    for panel in ("/blueprint_panel", "/selection_panel"):
+        assert settings[panel]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
     time_panel = settings["/time_panel"]
     assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
     assert time_panel["TimePanelBlueprint:timeline"] == "step"
@@ -251,11 +167,59 @@ def test_side_panels_are_folded_and_the_file_opens_on_the_last_step(recorded, sy
     assert time_panel["TimePanelBlueprint:fps"] * course.PLAYBACK_SECONDS == pytest.approx(STEPS)
 
 
-@pytest.mark.slow
-def test_long_runs_are_thinned_in_the_recording_but_not_in_the_metrics(tmp_path, capsys):
-    steps = 250_000
+@pytest.mark.parametrize("system_name", SPATIAL)
+def test_each_body_travels_its_path_beside_its_key_and_the_camera_frames_them_all(recorded, system_name):
+    """Each body moves step by step along its whole run, its trail drawn in its colour. The key names every
+    integrator in its colour, in a column right of every path, one row apart: never on a trail (RK4's on the
+    spring's red trails), never piled up (the damped spring's four at the origin). The camera is centred on the
+    box around every trail, the key and the axes' names, and high enough to frame it; a phase plane draws its
+    exact motion a hair below the integrators' lines."""
+    _, entities, settings, system, runs = recorded[system_name]
+    origin, looks = SPATIAL[system_name], course.looks(runs)
+    for name, (positions, velocities, _) in runs.items():  # the orbit's bodies in space, a spring's in (x, v_x)
+        plane = np.stack([positions[:, 0], velocities[:, 0], 0 * velocities[:, 0]], axis=1)
+        shown = positions if origin == "orbit" else plane
+        body, trail = entities[f"/{origin}/{name}/body"], entities[f"/{origin}/{name}/trail"]
+        assert column(body, "step") == list(range(STEPS + 1)), "one position per step, on the step timeline"
+        travelled = np.concatenate(column(body, "Points3D:positions"))
+        np.testing.assert_array_equal(travelled[:, :2], shown[:, :2].astype(np.float32))
+        lift = travelled[:, 2] - shown[:, 2].astype(np.float32)  # drawn a hair above or below the others
+        assert np.ptp(lift) < 1e-6, "the same lift at every step"
+        assert abs(lift[0]) < 0.01 * np.ptp(shown[:, :2], axis=0).max(), "a hair: under 1% of the path's size"
+        np.testing.assert_array_equal(np.array(column(trail, "LineStrips3D:strips")[0][0]), travelled)
+        colour = [packed(looks[name].colour)]
+        assert column(body, "Points3D:colors")[0] == column(trail, "LineStrips3D:colors")[0] == colour
+    key = entities[f"/{origin}/key"]
+    assert column(key, "Points3D:labels")[0] == [look.label for look in looks.values()]
+    assert column(key, "Points3D:colors")[0] == [packed(look.colour) for look in looks.values()]
+    spots = np.array(column(key, "Points3D:positions")[0])
+    trails = np.concatenate([np.array(column(entities[f"/{origin}/{name}/trail"], "LineStrips3D:strips")[0][0])
+                             for name in runs])
+    span = np.ptp(trails[:, :2], axis=0).max()
+    assert (spots[:, 0] > trails[:, 0].max() + 0.1 * span).all(), "right of every path, clear of the trails"
+    assert (np.diff(spots[:, 1]) < -0.05 * span).all(), "one row per name, top to bottom, apart"
+    axes = entities.get(f"/{origin}/axes")  # the phase plane's axes and their names
+    axes = [np.array(strip) for strip in column(axes, "LineStrips3D:strips")[0]] if axes else []
+    points = np.concatenate([trails, *axes, spots])
+    target, half = frame(views_of(settings)[("3D", origin)])
+    np.testing.assert_allclose(target[:2], (points.min(axis=0)[:2] + points.max(axis=0)[:2]) / 2, atol=1e-6)
+    assert 2 * half >= np.ptp(points[:, :2], axis=0).max(), "high enough that the widest path fits the view"
+    assert (np.abs(spots[:, :2] - target[:2]) < half).all(), "the key is inside the framed view"
+    if origin == "phase":
+        exact = np.array(column(entities["/phase/exact"], "LineStrips3D:strips")[0][0])
+        times = np.arange(STEPS + 1) * DT
+        np.testing.assert_allclose(exact[:, 0], system["exact"](system["q0"], system["v0"], times)[:, 0], atol=1e-6)
+        if system_name == "spring":  # x = x0 cos(2t): v = -2 x0 sin(2t)
+            np.testing.assert_allclose(exact[:, 1], -2.0 * system["q0"][0] * np.sin(2.0 * times), atol=1e-5)
+        assert (exact[:, 2] < 0).all(), "a hair below the plane, so the integrators' lines lie on top"
+
+
+def test_long_runs_are_thinned_in_the_recording(tmp_path, capsys, monkeypatch):
+    """Past MAX_POINTS_PER_SERIES states (100,000; 1,000 here, so the run is short) every k-th step is kept."""
+    monkeypatch.setattr(engine, "MAX_POINTS_PER_SERIES", 1_000)
+    steps = 2_500
     assert engine.main(["--integrator", "euler", "--steps", str(steps), "--out", str(tmp_path)]) == 0
-    assert "recording keeps 1 state in 3 of 250,001 per integrator" in capsys.readouterr().out
+    assert "recording keeps 1 state in 3 of 2,501 per integrator" in capsys.readouterr().out
     _, entities, settings, = read_recording(tmp_path / engine.RECORDING_FILE)
     logged_steps = column(entities["/energy_error/euler"], "step")
     assert len(logged_steps) <= engine.MAX_POINTS_PER_SERIES + 1
@@ -266,76 +230,31 @@ def test_long_runs_are_thinned_in_the_recording_but_not_in_the_metrics(tmp_path,
             assert props["TimeAxis:view_range"] == opens_on(steps), f"{origin} opens on the whole run"
 
 
-def test_a_system_without_its_own_views_gets_the_energy_error_and_its_position_error():
-    """A new system records before anyone writes it a view: RECORDED_VIEWS only tells a system's own story."""
+def test_a_new_system_or_integrator_records_before_anyone_writes_it_a_view_or_a_colour(tmp_path):
+    """A maintainer adds a system (an anharmonic spring, no exact motion) or an integrator (velocity Verlet) and has
+    not touched the recording: the system gets its paths and energy error (and its position error where it has an
+    exact motion), the integrator a spare colour and its own name."""
     assert set(engine_recording.RECORDED_VIEWS) <= set(engine.SYSTEMS)
-    orbit = engine.build_system("orbit", np.random.default_rng(0))
-    unknown = {**orbit, "name": "unlisted"}
+    spring = {**engine.build_system("spring", np.random.default_rng(0)), "name": "anharmonic"}
     paths, energy = engine_recording.log_paths, engine_recording.log_energy_error
-    assert engine_recording.views_for(unknown) == (paths, energy, engine_recording.log_position_error)
-    assert engine_recording.views_for({**unknown, "exact": None}) == (paths, energy)
-
-
-def test_a_system_without_its_line_records_its_paths_and_energy_error(tmp_path):
-    """A maintainer adds a system (say an anharmonic spring, no exact motion) and has not chosen its views yet."""
-    system = {**engine.build_system("spring", np.random.default_rng(0)), "name": "anharmonic", "exact": None}
+    assert engine_recording.views_for(spring) == (paths, energy, engine_recording.log_position_error)
+    assert engine_recording.views_for({**spring, "exact": None}) == (paths, energy)
+    system = {**spring, "exact": None}
     runs = {name: engine.simulate(step, system, DT, 100) for name, step in engine.integrators_for(system).items()}
-    data, _ = engine_recording.record(system, runs, engine.kept_steps(100), DT, run_id="new-system")
-    (tmp_path / "new.rrd").write_bytes(data)
-    _, entities, settings = read_recording(tmp_path / "new.rrd")
-    assert set(views_of(settings)) == {("3D", "paths"), ("TimeSeries", "energy_error")}
-    assert {f"/paths/{name}/trail" for name in runs} <= set(entities)
-
-
-def test_the_damped_spring_opens_on_its_phase_plane_beside_its_error_against_the_exact_motion(tmp_path):
-    assert engine.main(["--system", "damped_spring", "--out", str(tmp_path)]) == 0
-    _, entities, settings = read_recording(tmp_path / engine.RECORDING_FILE)
-    assert set(views_of(settings)) == {("3D", "phase"), ("TimeSeries", "position_error")}
-    system = engine.build_system("damped_spring", np.random.default_rng(0))
-    exact = system["exact"](system["q0"], system["v0"], np.arange(STEPS + 1) * DT)
-    for name in engine.integrators_for(system):  # the implicit step too
-        positions, velocities, _ = engine.simulate(engine.integrators_for(system)[name], system, DT, STEPS)
-        plane = np.concatenate(column(entities[f"/phase/{name}/body"], "Points3D:positions"))
-        np.testing.assert_array_equal(plane[:, :2], np.stack([positions[:, 0], velocities[:, 0]], axis=1)
-                                      .astype(np.float32))
-        miss = np.sqrt(np.sum((positions - exact) ** 2, axis=1))
-        logged = np.ravel(column(entities[f"/position_error/{name}"], "Scalars:scalars"))
-        np.testing.assert_allclose(logged, np.log10(miss[miss > 0]), atol=1e-9)
-
-
-@pytest.mark.parametrize("system_name", ["spring", "damped_spring"])
-def test_the_phase_plane_draws_the_exact_motion_under_the_integrators(tmp_path, system_name):
-    assert engine.main(["--system", system_name, "--out", str(tmp_path)]) == 0
-    _, entities, _ = read_recording(tmp_path / engine.RECORDING_FILE)
-    (exact,) = column(entities["/phase/exact"], "LineStrips3D:strips")[0]
-    exact = np.array(exact)
-    system = engine.build_system(system_name, np.random.default_rng(0))
-    times = np.arange(STEPS + 1) * DT
-    x = system["exact"](system["q0"], system["v0"], times)[:, 0]
-    np.testing.assert_allclose(exact[:, 0], x, atol=1e-6)
-    if system_name == "spring":  # x = x0 cos(2t): v = -2 x0 sin(2t)
-        np.testing.assert_allclose(exact[:, 1], -2.0 * system["q0"][0] * np.sin(2.0 * times), atol=1e-5)
-    assert (exact[:, 2] < 0).all(), "a hair below the plane, so the integrators' lines lie on top"
-
-
-def test_an_integrator_the_course_has_no_colour_for_records_in_a_spare_colour_under_its_own_name(tmp_path):
-    """A maintainer adds an integrator (say velocity Verlet) and forgets the recording: it still records."""
-    system = engine.build_system("orbit", np.random.default_rng(0))
-    runs = {name: engine.simulate(step, system, DT, 200) for name, step in engine.integrators_for(system).items()}
     runs["verlet"] = runs["rk4"]
-    data, _ = engine_recording.record(system, runs, engine.kept_steps(200), DT, run_id="new-name")
-    (tmp_path / "new.rrd").write_bytes(data)
-    _, entities, _ = read_recording(tmp_path / "new.rrd")
-    colours = {name: column(entities[f"/orbit/{name}/trail"], "LineStrips3D:colors")[0][0] for name in runs}
+    data, _ = engine_recording.record(system, runs, engine.kept_steps(100), DT, run_id="new")
+    _, entities, settings = read_bytes(data, tmp_path)
+    assert set(views_of(settings)) == {("3D", "paths"), ("TimeSeries", "energy_error")}
+    colours = {name: column(entities[f"/paths/{name}/trail"], "LineStrips3D:colors")[0][0] for name in runs}
     assert len(set(colours.values())) == len(runs), "every integrator its own colour"
     assert colours["verlet"] in [packed(colour) for colour in course.SPARE_COLOURS]
-    assert column(entities["/orbit/key"], "Points3D:labels")[0][-1] == "verlet"
+    assert column(entities["/paths/key"], "Points3D:labels")[0][-1] == "verlet"
     assert column(entities["/energy_error/verlet"], "SeriesLines:names")[0] == ["verlet"]
 
 
-def test_the_ensemble_plots_each_members_worst_error_so_far_over_every_step():
-    """Best, median and worst member of max over steps 0..k of |E - E0| / |E0|, against a plain loop;
-    with every=7 the steps between kept ones count too."""
+def test_the_ensemble_recording_holds_member_paths_and_tells_every_curve_apart(tmp_path):
+    """Best, median and worst member of max over steps 0..k of |E - E0| / |E0|, against a plain loop (with
+    every=7 the steps between kept ones count too); then what an --ensemble run records."""
     rng = np.random.default_rng(3)
     energies = 1.0 + np.cumsum(rng.normal(0.0, 1e-3, (50, 5)), axis=0)
     energies[0] = 1.0
@@ -347,16 +266,15 @@ def test_the_ensemble_plots_each_members_worst_error_so_far_over_every_step():
                  for i in range(5)]
         np.testing.assert_allclose(spread[row], [min(worst), np.median(worst), max(worst)], rtol=1e-12)
     assert (spread[1:] >= spread[:-1]).all(), "a worst-so-far never falls: no spikes"
-
-
-def test_the_ensemble_plot_tells_every_curve_apart(tmp_path):
-    assert engine.main(["--ensemble", "12", "--steps", "300", "--out", str(tmp_path)]) == 0
+    assert engine.main(["--ensemble", "30", "--out", str(tmp_path)]) == 0
     _, entities, settings = read_recording(tmp_path / engine.RECORDING_FILE)
     looks = course.looks(engine.integrators_for(engine.build_system("orbit", np.random.default_rng(0))))
     legend = {}
     for name, look in looks.items():
+        assert len(column(entities[f"/ensemble_paths/{name}"], "LineStrips3D:strips")[0]) == 20  # SHOWN_MEMBERS
         for which, width in (("min", 1.0), ("median", 3.5), ("max", 1.0)):
             series = entities[f"/ensemble_error/{name}/{which}"]
+            assert 1900 < len(column(series, "step")) <= STEPS + 1
             assert column(series, "SeriesLines:colors")[0] == [packed(look.colour)]
             assert column(series, "SeriesLines:widths")[0] == [width], "the median thick, the spread thin"
             (label,) = column(series, "SeriesLines:names")[0]
@@ -371,7 +289,8 @@ def test_the_ensemble_plot_tells_every_curve_apart(tmp_path):
 
 
 def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
-    """curriculum/common/recording.py as its docstring shows it (exercise 7's shape): a few lines, the opening."""
+    """curriculum/common/recording.py as its docstring shows it (exercise 7's shape): a few lines, the engine's
+    opening (checked on every system above), and NaN left out, not drawn."""
     steps = np.arange(301)
     errors = {"orbit": {"euler": steps * 1e-3, "verlet": np.cos(steps / 10.0)},
               "spring": {"rk4": np.full(301, np.nan), "semi_implicit": -steps * 1e-4}}
@@ -384,20 +303,15 @@ def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
             views.append(course.time_series(system, f"{system}: (E - E0) / |E0|", steps[-1], logged))
         return course.opening(views, steps[-1])
 
-    (tmp_path / "api.rrd").write_bytes(course.recorded("zero2robot-test", fill))
-    recording, entities, settings = read_recording(tmp_path / "api.rrd")
-    assert recording.application_id == "zero2robot-test"
-    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
+    recording, entities, settings = read_bytes(course.recorded("zero2robot-test", fill), tmp_path)
     views = views_of(settings)
-    assert set(views) == {("TimeSeries", "orbit"), ("TimeSeries", "spring")}
+    assert recording.application_id == "zero2robot-test" and set(views) == {("TimeSeries", "orbit"),
+                                                                           ("TimeSeries", "spring")}
     assert views[("TimeSeries", "orbit")]["TimeAxis:view_range"] == {"start": 0, "end": 312}, "4% past the end"
     low, high = views[("TimeSeries", "orbit")]["ScalarAxis:range"]
     assert low < -0.99 and high > 0.99, "fitted to every value logged"
     assert column(entities["/orbit/verlet"], "SeriesLines:names")[0] == ["verlet"]
-    drawn = [row for b in entities["/spring/rk4"] if "Scalars:scalars" in b.schema.names
-             for row in b.column("Scalars:scalars").to_pylist()]
-    assert drawn == [], "NaN is left out, not drawn"
+    assert not any("Scalars:scalars" in b.schema.names for b in entities["/spring/rk4"]), "NaN is left out"
     assert len(column(entities["/spring/semi_implicit"], "Scalars:scalars")) == 301
 
 
@@ -412,9 +326,7 @@ LISTED = {  # issue 24's recordings, made as a student makes them (the README's 
     "damped spring at b 300": ["--system", "damped_spring", "--damping", "300"],
     "orbit at dt 0.5": ["--system", "orbit", "--dt", "0.5"],
     "ensemble of 1000": ["--ensemble", "1000"],
-    "exercise 5": "ex5",
-    "exercise 7": "ex7",
-}
+}  # exercises 5 and 7 frame and fill their own recordings: tests/test_ex5.py, tests/test_ex7.py
 EDGES = {  # where every integrator diverges, the damping limit, one step, a blow-up at the very first step
     "spring at dt 3": ["--system", "spring", "--dt", "3"],
     "damped spring at b 1e6": ["--system", "damped_spring", "--damping", "1e6"],
@@ -427,34 +339,13 @@ EDGES = {  # where every integrator diverges, the damping limit, one step, a blo
 SMOOTH = {*LISTED, "orbit at dt 5"}
 
 
-def made(case, tmp_path):
-    """(entities, blueprint settings, metrics.json or None) of one case's recording, made in this process."""
-    import json
-
-    from exercises import ex5_phase_blob as ex5
-    from exercises.support import shadow, shadow_recording
-
-    rrd = tmp_path / "case.rrd"
-    metrics = None
-    if case == "ex5":
-        ex5.record(rrd, ex5.measure(ex5.DT, ex5.STEPS))
-    elif case == "ex7":
-        rrd.write_bytes(shadow_recording.record({name: shadow.measure(name) for name in shadow.SYSTEMS}))
-    else:
-        assert engine.main([*case, "--out", str(tmp_path)]) == 0
-        rrd, metrics = tmp_path / engine.RECORDING_FILE, json.loads((tmp_path / engine.METRICS_FILE).read_text())
-    _, entities, settings = read_recording(rrd)
-    return entities, settings, metrics
-
-
 def is_grey(packed_colour):
-    r, g, b = (packed_colour >> 24) & 0xFF, (packed_colour >> 16) & 0xFF, (packed_colour >> 8) & 0xFF
-    return r == g == b
+    return len({(packed_colour >> shift) & 0xFF for shift in (24, 16, 8)}) == 1  # red == green == blue
 
 
 def must_frame(entities, origin, labels):
     """The points a spatial view must frame, as the recording holds them: its exact motion where it draws one,
-    or else every path of a run whose key names no blow-up (an ensemble's members, exercise 5's blobs)."""
+    or else every path of a run whose key names no blow-up (an ensemble's members)."""
     if f"/{origin}/exact" in entities:
         return [np.array(strip) for strip in column(entities[f"/{origin}/exact"], "LineStrips3D:strips")[0]]
     bounded = [name for name, label in labels.items() if "overflowed" not in label]
@@ -477,22 +368,23 @@ def test_every_recording_frames_what_stays_bounded_and_shows_every_integrator(ca
     a run that blew up says so in the key with the step metrics.json names; every integrator in a plot has a
     value to draw; lines that could lie on one another differ in width; and no empty column (which crashes the
     viewer) is ever sent. pytest never opens a viewer: tools/screenshots.py shows the same recordings."""
-    entities, settings, metrics = made({**LISTED, **EDGES}[case], tmp_path)
+    assert engine.main([*{**LISTED, **EDGES}[case], "--out", str(tmp_path)]) == 0
+    _, entities, settings = read_recording(tmp_path / engine.RECORDING_FILE)
+    metrics = json.loads((tmp_path / engine.METRICS_FILE).read_text())
     listed = case in LISTED
     for path, batches in entities.items():
         assert all(batch.num_rows > 0 for batch in batches), f"{path}: an empty column (Rerun 0.41's viewer panics)"
-    integrators = list(metrics["drift"]) if metrics else list(engine.CHAPTER_INTEGRATORS)
+    integrators = list(metrics["drift"])
     for (kind, origin), props in views_of(settings).items():
         if kind == "3D":
             names = integrators if f"/{origin}/key" in entities else []
             labels = key_labels(entities, origin, names) if names else {}
             for name, label in labels.items():  # the step a run blew up at: the table's and metrics.json's
-                step = metrics and metrics["drift"][name].get("energy_overflow_step")
-                if metrics and origin != "ensemble_paths":
+                step = metrics["drift"][name].get("energy_overflow_step")
+                if origin != "ensemble_paths":
                     assert (f"energy overflowed at step {step:,}" in label) if step else ("overflowed" not in label)
             points = np.concatenate([p.reshape(-1, 3) for p in must_frame(entities, origin, labels)])
-            target, eye = np.array(props["EyeControls3D:look_target"]), np.array(props["EyeControls3D:position"])
-            half = (eye[2] - target[2]) / 2.0  # the least the camera frames either side of its target
+            target, half = frame(props)
             assert (np.abs(points[:, :2] - target[:2]) <= half).all(), f"{case}, {origin}: all of it in the frame"
             size = np.ptp(points[:, :2], axis=0).max()
             if listed:
