@@ -1,7 +1,6 @@
 """See the recordings as a student does: run engine.py and exercise 5, open each .rrd in the real viewer, save PNGs.
 
-pytest does not collect this file (it is not named test_*). Run it from the repo root with the project's
-environment active:
+Run it from the repo root with the project's environment active (pytest does not collect it):
 
     python tools/screenshots.py            # eleven PNGs in outputs/screenshots/, then look at every one
     python tools/screenshots.py ex5 spring # some of them
