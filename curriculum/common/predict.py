@@ -34,7 +34,7 @@ ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler",
            "growswiththerun": "grows", "growwiththerun": "grows", "unbounded": "grows"}
 LONGEST_NAME = 4  # words: "classical runge kutta 4"
 SPELLED = {2: "two", 3: "three", 4: "four", 5: "five"}  # 'all four'
-NUMBER = re.compile(r"(\d{1,9})(?:\.0)?(?:e(\d{1,2}))?(k?)")  # 10000, 10000.0, 1e4, 10k ('1.000' reads two ways)
+NUMBER = re.compile(r"(\d{1,9})(?:\.0)?(?:e(\d{1,2}))?(k?)")  # 10000, 10000.0, 1e4, 10k; not 1.000 (two readings)
 
 
 class OneOf:
@@ -171,8 +171,7 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, vari
     args = parser.parse_args(argv)
     parser.parsed = args
     _asked.update(question=question, answers=answers, more=args.more)  # what was asked, for explain() and the tests
-    found = EXERCISE_FILE.fullmatch(f"{parser.prog.rpartition('.')[2]}.py")
-    number = int(found.group(1)) if found else None  # None: not one of the course's exercises, nothing recorded
+    number = int(EXERCISE_FILE.fullmatch(f"{parser.prog.rpartition('.')[2]}.py")[1])  # exercises.ex3_halve_dt: 3
     value = getattr(args, variant) if variant else None
     asked = f"{variant}={value}" if variant and value != parser.get_default(variant) else ""  # "": the default
     if args.predict is None:
@@ -190,7 +189,7 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, vari
         parser.exit(2, f"{parser.prog}: error: {problem}\n")
     _asked.update(prediction=prediction, said=said(prediction, answers), number=number,
                   **record(number, asked, prediction, args))
-    if interrupts.active() and number is not None:  # the exercise being run, not a test's main(): its last line
+    if interrupts.active():  # the exercise being run, not a test's main(): its last line
         atexit.register(_say_next, number)
     return prediction
 
@@ -203,12 +202,12 @@ def asked() -> dict:
     return dict(_asked)
 
 
-def tries(book, number: int | None, asked: str) -> list:
+def tries(book, number: int, asked: str) -> list:
     """The predictions of exercise `number`'s question `asked` since its last reset, the first first."""
     return [r for r in book.of(number) if r["kind"] == "predict" and r["question"] == asked]
 
 
-def show_question(run: str, question: str, answers, number: int | None, asked: str) -> None:
+def show_question(run: str, question: str, answers, number: int, asked: str) -> None:
     """A bare run: the question, then how to commit; or, once committed, what and when (no figure either way)."""
     print(question)
     tried = tries(journal.load(), number, asked)
@@ -232,7 +231,7 @@ def said(prediction, answers) -> str:
     return f"{prediction:,}" if isinstance(prediction, int) else str(prediction)
 
 
-def record(number: int | None, asked: str, prediction, args) -> dict:
+def record(number: int, asked: str, prediction, args) -> dict:
     """The prediction in the journal before any figure, or a replay of the same answer: {id, note for verdict()}."""
     answer, tried = sorted(prediction) if isinstance(prediction, frozenset) else prediction, []
 
@@ -246,9 +245,9 @@ def record(number: int | None, asked: str, prediction, args) -> dict:
                 "attempt": len(tried) + 1}
 
     kept = f"your prediction is recorded in {journal.shown(journal.where() or Path())}"
-    written = journal.append(make, kept) if number is not None else None
+    written = journal.append(make, kept)
     if written is None:
-        if number is not None and journal.where() is None and sys.stderr.isatty():  # to the student, as progress is
+        if journal.where() is None and sys.stderr.isatty():  # to the student, as progress is
             print(f"note: recording is off ({journal.SETTING}=off): this prediction is not recorded", file=sys.stderr)
         return {"id": None, "note": ""}
     if written["kind"] == "replay":
