@@ -23,15 +23,16 @@ fcntl = None if os.name == "nt" else __import__("fcntl")  # Windows: no flock; a
 DEFAULT, COURSE, SETTING = EXERCISES / "journal.jsonl", EXERCISES.parent, "COURSE_JOURNAL"
 VERSION = 1  # the format: a journal of another version is named, never read as this one
 MAX_BYTES = 4_000_000  # a whole course is a few hundred lines; past this a file is not a journal
-MAX_LINE = 20_000  # characters: a record's longest line, which bounds its every field too
+MAX_LINE = 20_000  # bytes: a record's longest line, which bounds its every field too
 NOFOLLOW = outputs.NOFOLLOW
 NOTE = "Written by the exercises, one line per prediction or check. Do not edit: an edit breaks the chain."
 ANSWER, PARTS = "a name, a number, a list of names or a value per name", "{function: solved}"
-FIELDS = {"journal": {"version": int, "note": str, "checkout": str}, "asked": {"ex": int, "question": str},  # old
+FIELDS = {"journal": {"version": int, "note": str, "checkout": str},
           "predict": {"ex": int, "question": str, "answer": ANSWER, "typed": str, "because": str, "attempt": int},
           "replay": {"ex": int, "question": str, "prediction": str},
           "marks": {"ex": int, "prediction": str, "right": int, "items": int},
-          "check": {"ex": int, "solved": bool, "parts": PARTS, "sha256": str, "own": bool}, "reset": {"ex": int}}
+          "check": {"ex": int, "solved": bool, "parts": PARTS, "sha256": str, "own": bool}, "reset": {"ex": int},
+          "asked": {"ex": int, "question": str}}  # a bare question, as earlier versions recorded it
 
 
 def valid(record) -> bool:
