@@ -155,7 +155,7 @@ RUNNER = {"semi_sys_exit", "semi_os_exit", "semi_signature_changed", "semi_raise
           "semi_patches_engine", "semi_defined_twice", "semi_force_extra_arg", "both_forges_output", "both_reads_stdin",
           "both_forges_answers", "right_prints_every_call"}
 QUICK = {"semi_forgot_mass", "semi_returns_lists", "rk4_floor_division", "rk4_weights_over_5", "rk4_three_eighths",
-         "rk4_stage_velocity_not_passed", "right_stacked", "right_np_add", "semi_aliasing_buffers", "semi_endless",
+         "rk4_stage_velocity_not_passed", "right_stacked", "right_np_add", "semi_aliasing_buffers", "semi_raises",
          "both_clamp_velocity", "semi_force_list"}
 
 
