@@ -84,20 +84,29 @@ def test_the_prediction_is_on_disk_before_the_first_figure_and_a_ctrl_c_keeps_it
     assert journal.read(path.read_bytes()).edited is None
 
 
-@pytest.mark.parametrize("planted", ["symlink", "folder"])
+@pytest.mark.parametrize("planted", ["symlink", "folder", "sticky"])
 def test_a_journal_that_cannot_be_written_costs_one_line_and_the_exercise_runs(planted, tmp_path):
-    """A symbolic link planted where the journal goes is never followed: its target stays as it was."""
+    """A symbolic link planted where the journal goes is never followed, nor another user's file in a sticky folder
+    (like /tmp): what is there stays as it was."""
     path, target = tmp_path / "journal.jsonl", tmp_path / "elsewhere.txt"
     target.write_text("not the journal\n")
     if planted == "symlink":
         path.symlink_to(target)
-    else:
+    elif planted == "folder":
         path = tmp_path / "missing" / "journal.jsonl"
+    else:
+        if os.geteuid() != 0:
+            pytest.skip("a file that belongs to another user needs root")
+        (tmp_path / "shared").mkdir(mode=0o1777)
+        (tmp_path / "shared").chmod(0o1777)
+        path = target = target.rename(tmp_path / "shared" / "journal.jsonl")
+        os.chown(path, 65533, 65533)
     result = run("exercises.ex6_stiff_damping", "--predict", "rk4", journal_path=path)
     assert result.returncode == 0 and "Not quite" in result.stdout
     assert result.stdout.splitlines()[-1] == journal.next_line(6, journal.Journal())  # the one after, the board blind
     assert result.stderr.count("\n") == 1 and result.stderr.startswith("note: nothing was recorded in the journal")
     assert ("symbolic link" in result.stderr) == (planted == "symlink")
+    assert ("sticky folder" in result.stderr) == (planted == "sticky")
     assert target.read_text() == "not the journal\n"
 
 

@@ -121,7 +121,10 @@ def when(stamp) -> str:  # 'Tue 25 Nov 10:02'
 
 @contextlib.contextmanager
 def _opened(path: Path, flags: int):
-    """(fd, contents) of the journal, flocked (shared to read), never through a link, never past MAX_BYTES."""
+    """(fd, contents) of the journal, flocked (shared to read), never through a link, never past MAX_BYTES, never
+    another user's file in a sticky folder (like /tmp: root is not stopped by the kernel's protected_regular)."""
+    if problem := outputs.planted(path):
+        raise OSError(errno.EPERM, problem)
     fd = os.open(path, flags | os.O_NONBLOCK | NOFOLLOW, 0o644)  # O_NONBLOCK: a FIFO fails in pread, never hangs
     try:
         fcntl and fcntl.flock(fd, fcntl.LOCK_SH if flags == os.O_RDONLY else fcntl.LOCK_EX)  # released by close
