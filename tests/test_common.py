@@ -102,5 +102,5 @@ def test_padded_gives_a_range_even_when_nothing_is_finite():
 
 
 def test_shown_escapes_what_a_terminal_obeys_and_cuts_long_text():
-    assert shown("a\x1b[2Jb\u202ec\nd\x85é") == "a\\x1b[2Jb\\u202ec\\nd\\x85é"
+    assert shown("a\x1b[2Jb\u202ec\nd\x85é\udcff") == "a\\x1b[2Jb\\u202ec\\nd\\x85é\\udcff"  # \udcff: the byte 0xff
     assert shown("x" * 5000) == "x" * 24 + "..." + "x" * 13 and shown("x" * 5000, None) == "x" * 5000
