@@ -34,6 +34,13 @@ def test_two_smoke_runs_write_identical_bytes_and_say_nothing_on_stderr(tmp_path
     assert (tmp_path / "a" / "metrics.json").read_bytes() == (tmp_path / "b" / "metrics.json").read_bytes()
 
 
+def test_a_name_the_output_encoding_cannot_show_prints_escaped(tmp_path):
+    """A terminal or a redirected stdout narrower than UTF-8 (Windows' cp1252 in a file): no UnicodeEncodeError."""
+    ascii_only = {**os.environ, "PYTHONIOENCODING": "ascii"}
+    result = run_engine("--smoke", "--no-rerun", "--out", tmp_path / "\u0394t", env=ascii_only)
+    assert (result.returncode, result.stderr) == (0, "") and "\\u0394t" in result.stdout
+
+
 BAD_INPUT = {
     "zero dt": (["--dt", "0"], "--dt"),
     "nan dt": (["--dt", "nan"], "--dt"),

@@ -130,6 +130,9 @@ def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
         def guarded(*args, **kwargs):
             KEPT.clear()
             interrupts.said("no file was written")
+            for stream in (sys.stdout, sys.stderr):  # a name the terminal's encoding cannot show prints escaped
+                with contextlib.suppress(AttributeError, ValueError, OSError):
+                    stream.reconfigure(errors="backslashreplace")
             code = None
             try:
                 code = main(*args, **kwargs)
