@@ -65,8 +65,6 @@ BAD_INPUT = {
     "ensemble in words": (["--ensemble", "many"], "is not a whole number"),
     "ensemble past the memory": (["--ensemble", "100000"], "GB"),
     "dt that overflows the sim time": (["--dt", "1e308"], "more time than a float can hold"),
-    "negative infinite dt": (["--dt", "-inf"], "--dt must be a positive, finite number, got -inf"),
-    "negative dt in e-notation": (["--dt", "-1e3"], "got -1e3"),
 }
 
 

@@ -24,11 +24,7 @@ def shown(text, most: int | None = 40) -> str:
 
 class OneLineParser(argparse.ArgumentParser):
     """An ArgumentParser whose errors are one line: `prog: error: what is wrong (see --help)`. A mistyped flag is
-    named with the flag it most looks like; a value like `-inf` or `-1e3` reaches the flag's type."""
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self._negative_number_matcher = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
+    named with the flag it most looks like."""
 
     def error(self, message):
         hint = ""
