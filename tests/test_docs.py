@@ -49,7 +49,7 @@ def asked(module_name: str) -> tuple:
     out = io.StringIO()
     with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
         module.main([])
-    return out.getvalue(), predict.asked()
+    return out.getvalue(), dict(predict._asked)
 
 
 def graded_answers() -> dict:

@@ -194,12 +194,7 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, vari
     return prediction
 
 
-_asked = {}  # what ask() asked, returned and recorded, for verdict() and explain()
-
-
-def asked() -> dict:
-    """What the last ask() asked: {"question": text, "answers": its parser, ...} (tests/test_docs.py reads it)."""
-    return dict(_asked)
+_asked = {}  # what ask() asked, returned and recorded, for verdict(), explain() and tests/test_docs.py
 
 
 def tries(book, number: int, asked: str) -> list:
