@@ -133,7 +133,7 @@ def log_bodies(rr, recording, entity, look, points, kept, width, trail=None):
     body = rr.Points3D.from_fields(colors=colour, radii=rr.components.Radius.ui_points(3.0 + 2.0 * width))
     recording.log(f"{entity}/body", body, static=True)
     if shown.any():  # never an empty column (see course.log_series)
-        recording.send_columns(f"{entity}/body", indexes=course.on_steps(kept[shown]),
+        recording.send_columns(f"{entity}/body", indexes=[rr.TimeColumn("step", sequence=kept[shown])],
                                columns=rr.Points3D.columns(positions=points[shown]))
 
 

@@ -62,12 +62,6 @@ def recorded(application_id: str, fill, recording_id: str | None = None) -> byte
     return data
 
 
-def on_steps(steps):
-    import rerun as rr
-
-    return [rr.TimeColumn("step", sequence=steps)]
-
-
 def log_series(stream, entity: str, steps, values, look: Look, width: float | None = None):
     """One line on the `step` timeline, non-finite values left out, a short line's values marked; no column for no value
     (empty columns crash Rerun 0.41's viewer). Returns the values logged."""
@@ -82,7 +76,8 @@ def log_series(stream, entity: str, steps, values, look: Look, width: float | No
         marker = rr.SeriesPoints(colors=[look.colour], names=[look.label], marker_sizes=[3.0 + (width or 1.0)])
         stream.log(entity, marker, static=True)
     if shown.any():
-        stream.send_columns(entity, indexes=on_steps(steps[shown]), columns=rr.Scalars.columns(scalars=values[shown]))
+        stream.send_columns(entity, indexes=[rr.TimeColumn("step", sequence=steps[shown])],
+                            columns=rr.Scalars.columns(scalars=values[shown]))
     return values[shown]
 
 
