@@ -24,7 +24,7 @@ DEFAULT, COURSE, SETTING = EXERCISES / "journal.jsonl", EXERCISES.parent, "COURS
 VERSION = 1  # the format: a journal of another version is named, never read as this one
 MAX_BYTES = 4_000_000  # a whole course is a few hundred lines; past this a file is not a journal
 MAX_LINE = 20_000  # bytes: a record's longest line, which bounds its every field too
-NOFOLLOW = outputs.NOFOLLOW
+NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)  # none on Windows
 NOTE = "Written by the exercises, one line per prediction or check. Do not edit: an edit breaks the chain."
 ANSWER, PARTS = "a name, a number, a list of names or a value per name", "{function: solved}"
 FIELDS = {"journal": {"version": int, "note": str, "checkout": str},
@@ -143,7 +143,7 @@ def load() -> Journal:
         with _opened(path, os.O_RDONLY) as (_, data):
             return read(data)
     except OSError as error:
-        return Journal(trouble=f"{shown(path)} cannot be read: {_why(error)}")
+        return Journal(trouble=f"{shown(path)} cannot be read: {error.strerror}")
 
 
 def append(make, kept: str | None = None) -> dict | None:
@@ -173,12 +173,8 @@ def append(make, kept: str | None = None) -> dict | None:
                 outputs.KEPT.extend([kept] if kept else [])
             return record
     except OSError as error:
-        print(f"note: nothing was recorded in the journal ({shown(path)}: {_why(error)})", file=sys.stderr)
+        print(f"note: nothing was recorded in the journal ({shown(path)}: {error.strerror})", file=sys.stderr)
         return None
-
-
-def _why(error: OSError) -> str:
-    return "it is a symbolic link, which is never followed" if error.errno == errno.ELOOP else str(error.strerror)
 
 
 def checked(default: Path, path: Path, parts: dict) -> None:

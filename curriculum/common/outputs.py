@@ -16,7 +16,6 @@ from pathlib import Path
 from curriculum.common import interrupts
 from curriculum.common.cli import UNSHOWN, shown
 
-NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)  # for the journal's own open()
 KEPT = interrupts.KEPT  # what main() keeps whatever happens next (a prediction in the journal), said in every line
 
 
