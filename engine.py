@@ -37,7 +37,7 @@ import engine_recording  # all of Rerun, which it loads only to record
 import engine_registry as registry  # the declarations: the facts each system and integrator states
 from curriculum.common.cli import OneLineParser, int_in, name_arg, positive_finite, progress_printer, recording_wanted
 from curriculum.common.device import banner, wall_clock
-from curriculum.common.outputs import folder_arg, folder_problem, one_line_failures
+from curriculum.common.outputs import folder_problem, one_line_failures
 from curriculum.common.report import cell, rounded, sim_time, where_written, write_outputs
 from curriculum.common.viewer import rerun_problem
 from engine_referee import did_not_move, dot3, kepler_orbit, overflow_step, relative_energy_error, times_for
@@ -363,7 +363,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                              " fits in 1 GB (a larger one is refused and told how many fit; default off)")
     parser.add_argument("--device", choices=["cpu"], default="cpu",
                         help="pure numpy runs on the CPU; the flag is there for the course's banner")
-    parser.add_argument("--out", type=folder_arg, default=Path("outputs/ch3.3-engine"),
+    parser.add_argument("--out", type=Path, default=Path("outputs/ch3.3-engine"),
                         help=f"folder for {METRICS_FILE} and {RECORDING_FILE} (default outputs/ch3.3-engine)")
     parser.add_argument("--rerun", dest="rerun", action="store_true", default=True,
                         help=f"write the {RECORDING_FILE} recording (the default)")

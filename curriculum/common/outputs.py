@@ -1,7 +1,6 @@
 """A run's files written whole or not at all (a temporary file beside each, os.replace'd while signals wait); the check
 of an output folder before a run; and the decorator that makes main()'s every other failure one line."""
 
-import argparse
 import contextlib
 import functools
 import hashlib
@@ -14,9 +13,7 @@ import tempfile
 from pathlib import Path
 
 from curriculum.common import interrupts
-from curriculum.common.cli import UNSHOWN, shown
-
-KEPT = interrupts.KEPT  # what main() keeps whatever happens next (a prediction in the journal), said in every line
+from curriculum.common.cli import shown
 
 
 def content_id(data: bytes | str) -> str:
@@ -24,19 +21,9 @@ def content_id(data: bytes | str) -> str:
     return hashlib.sha256(data.encode() if isinstance(data, str) else data).hexdigest()[:16]
 
 
-def folder_arg(text: str) -> Path:
-    """Argument type for an output folder: not empty."""
-    if not text.strip():
-        raise argparse.ArgumentTypeError("the output folder is empty; name one, e.g. outputs/run1")
-    return Path(text)
-
-
 def folder_problem(out, names=()) -> str | None:
     """Why the folder `out` cannot take files called `names`, or None if it can. Creates nothing."""
     out = existing = Path(out)
-    for text in [str(out), *names]:
-        if UNSHOWN.search(text):
-            return f"'{shown(text, 100)}' holds a control character or a byte that is not text; name it plainly"
     if problem := planted(out):
         return problem
     while not os.path.lexists(existing) and existing != existing.parent:
@@ -127,7 +114,7 @@ def one_line_failures(prog: str, memory_hint: str = "a shorter run needs less"):
     def decorate(main):
         @functools.wraps(main)
         def guarded(*args, **kwargs):
-            KEPT.clear()
+            interrupts.KEPT.clear()
             interrupts.said("no file was written")
             for stream in (sys.stdout, sys.stderr):  # a name the terminal's encoding cannot show prints escaped
                 with contextlib.suppress(AttributeError, ValueError, OSError):
