@@ -236,7 +236,7 @@ UNCHECKABLE = {  # a file given to the checker (bytes, or a folder, or nothing t
     "syntax.py": (b"def f(q)\n    return q\n", 1, "syntax.py, line 1: SyntaxError: expected ':'. def f(q) ^"),
     "latin1.py": (b"x = 'caf\xe9'\n", 1, "latin1.py, line 1: SyntaxError: (unicode error) 'utf-8' codec can't decode"),
     "nul.py": (b"x = 1,\x00 2\n", 1, "nul.py: SyntaxError: source code string cannot contain null bytes."),
-    "folder.py": ("folder", 2, "folder.py is a folder; give the .py file itself"),
+    "folder.py": ("folder", 2, "folder.py: Is a directory"),
     "steps.txt": (b"", 2, "steps.txt is not a Python file: the checker imports it, so it must end in .py"),
     "missing.py": (None, 2, "there is no file"),
 }

@@ -16,7 +16,6 @@ import os
 import select
 import shutil
 import signal
-import stat
 import subprocess
 import sys
 import tempfile
@@ -45,8 +44,6 @@ def source_problem(path: Path) -> tuple[int, str] | None:
     compile (the sentence then ends with the line and a caret). None if it can. Runs none of its code."""
     where = shown(path, 100)
     try:
-        if stat.S_ISDIR(path.stat().st_mode):
-            return 2, f"{where} is a folder; give the .py file itself"
         if path.suffix != ".py":
             return 2, f"{shown(path.name, 60)} is not a Python file: the checker imports it, so it must end in .py"
         compile(path.read_bytes(), str(path), "exec", dont_inherit=True)  # decoded as Python imports it
