@@ -21,6 +21,7 @@ from engine_referee import distance, overflow_step, relative_energy_error
 APPLICATION_ID = "zero2robot-ch3_3-engine"  # rerun 0.41 ids: letters, digits, '_' and '-'
 EXACT_GREY = (120, 120, 120)  # the exact motion, drawn wide under the integrators' lines
 LIFT = 1e-3  # of a view's width: how much higher each next trail is drawn, so lines on one another all show
+REACH = 2.0  # a spatial view frames the runs that stay within this many times the exact motion's size
 EXACT_POINTS = 100_000  # the most points the grey exact motion is drawn with, however coarse the steps
 
 
@@ -74,18 +75,30 @@ def layout(rrb, views, below, kept):
     return course.opening(story, int(kept[-1]))
 
 
+def within_reach(reference, paths, reach: float = REACH) -> list:
+    """The paths to frame with `reference`: drawable and within `reach` times its half-width of its centre (x, y)."""
+    low, high = course.extent(reference)
+    centre, half = (low + high)[:2] / 2.0, float(max(high[0] - low[0], high[1] - low[1])) / 2.0
+    kept = []
+    for path in paths:
+        points = np.reshape(path, (-1, 3))
+        if course.drawable(points).all() and (np.abs(points[:, :2] - centre) <= reach * half).all():
+            kept.append(path)
+    return kept
+
+
 def log_flat(rr, recording, origin, name, looks, paths, kept, exact=None, anchors=(), axes=None, tilt=0.0,
              scales=(1.0, 1.0)):
     """A flat view seen from above, framed on what stays bounded: the exact motion, drawn wide and grey under the
     runs (or, without one, the runs that stay drawable), the `anchors` (the attractor, the origin) and every run
-    that stays within course.REACH times that size. A run that goes further is seen leaving the frame, and one
+    that stays within REACH times that size. A run that goes further is seen leaving the frame, and one
     that blew up says at which step in the key, which stands beside the frame. Each run is a trail with a body
     travelling along it; trails lying on one another all show: in name order each one is drawn thinner and a
     hair higher than the one before (as the plots layer their lines). `axes` names the two axes, drawn through
     the origin, whose ticks read in true units where an axis is drawn `scales` times its size."""
     reference = [exact] if exact is not None else [p for p in paths.values() if course.drawable(p).all()]
     reference = [*(reference or paths.values()), *np.reshape(anchors, (-1, 1, 3))]
-    near = course.near(reference, paths.values())
+    near = within_reach(reference, paths.values())
     framed = [*reference, *near]
     low, high = course.extent(framed)
     span = float(max(high[0] - low[0], high[1] - low[1]) or 1.0)
@@ -299,7 +312,7 @@ def log_member_paths(rr, recording, system, ensemble, kept, dt, looks):
         lines = rr.LineStrips3D(strips, colors=[looks[name].colour], radii=rr.components.Radius.ui_points(0.75))
         recording.log(f"ensemble_paths/{name}", lines, static=True)
         every_path.append(summary["paths"])
-    framed += course.near(framed, every_path) if framed else [p for p in every_path if course.drawable(p).all()]
+    framed += within_reach(framed, every_path) if framed else [p for p in every_path if course.drawable(p).all()]
     key_looks = course.looks(ensemble)  # the key says how many members blew up, where any did
     for name, summary in ensemble.items():
         if summary["diverged"].any():

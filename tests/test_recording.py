@@ -301,7 +301,7 @@ def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
             look = course.looks(curves)
             logged = [course.log_series(stream, f"{system}/{n}", steps, curves[n], look[n]) for n in curves]
             views.append(course.time_series(system, f"{system}: (E - E0) / |E0|", steps[-1], logged))
-        return course.opening(views, steps[-1])
+        return course.opening(rrb.Vertical(*views), steps[-1])
 
     recording, entities, settings = read_bytes(course.recorded("zero2robot-test", fill), tmp_path)
     views = views_of(settings)

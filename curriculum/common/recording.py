@@ -23,7 +23,6 @@ SPARE_COLOURS = [colour for colour in PALETTE.values() if colour not in COLOURS.
 PLAYBACK_SECONDS = 20.0  # pressing play runs the whole recording in about this long, whatever its length
 FEW_POINTS = 50  # a plot's line with this many values or fewer also marks each one
 END_ROOM = 0.04  # a plot's time axis runs this much past the last step, so the viewer labels that step too
-REACH = 2.0  # a spatial view frames the runs that stay within this many times the exact motion's size
 DRAW_LIMIT = 1e30  # Rerun stores float32 (to 3.4e38): headroom for the camera and labels; inf and NaN never drawn
 Look = namedtuple("Look", ["colour", "label"])  # how one name's lines and points look
 
@@ -37,11 +36,9 @@ def looks(names) -> dict:
 
 
 def opening(story, last_step: int, timeline: str = "step"):
-    """The Blueprint: `story` (a view, views to stack, an rrb layout) fills the window; play takes PLAYBACK_SECONDS."""
+    """The Blueprint: `story` (a view or an rrb layout) fills the window; play takes PLAYBACK_SECONDS."""
     import rerun.blueprint as rrb
 
-    if isinstance(story, list | tuple):  # several views: one under the other
-        story = rrb.Vertical(*story)
     return rrb.Blueprint(story, rrb.BlueprintPanel(state="hidden"), rrb.SelectionPanel(state="hidden"),
                          rrb.TimePanel(state="collapsed", timeline=timeline, play_state="following",
                                        fps=max(int(last_step) / PLAYBACK_SECONDS, 1.0)))
@@ -121,18 +118,6 @@ def extent(paths):
     if len(points) == 0:
         return np.full(3, -1.0), np.full(3, 1.0)
     return points.min(axis=0), points.max(axis=0)
-
-
-def near(reference, paths, reach: float = REACH) -> list:
-    """The paths to frame with `reference`: drawable and within `reach` times its half-width of its centre (x, y)."""
-    low, high = extent(reference)
-    centre, half = (low + high)[:2] / 2.0, float(max(high[0] - low[0], high[1] - low[1])) / 2.0
-    kept = []
-    for path in paths:
-        points = np.reshape(path, (-1, 3))
-        if drawable(points).all() and (np.abs(points[:, :2] - centre) <= reach * half).all():
-            kept.append(path)
-    return kept
 
 
 def from_above(origin: str, name: str, paths, tilt: float = 0.0, margin: float = 1.2):
