@@ -149,7 +149,7 @@ def load() -> Journal:
 def append(make, kept: str | None = None) -> dict | None:
     """Add make(journal)'s record (None: nothing) with its time and chain, after the header if the journal is new.
     Synced when this returns it; None if recording is off or failed (said on stderr). `kept` joins what a signal's
-    line says was kept (outputs.KEPT) in the same instant."""
+    line says was kept (interrupts.KEPT) in the same instant."""
     path = where()
     if path is None:
         return None
@@ -170,7 +170,7 @@ def append(make, kept: str | None = None) -> dict | None:
             with outputs.signals_held():  # Ctrl-C waits for the whole record, then is said
                 os.write(fd, out)  # one write() under the lock; short only on a full disk: a cut line, skipped
                 os.fsync(fd)
-                outputs.KEPT.extend([kept] if kept else [])
+                interrupts.KEPT.extend([kept] if kept else [])
             return record
     except OSError as error:
         print(f"note: nothing was recorded in the journal ({shown(path)}: {error.strerror})", file=sys.stderr)
