@@ -105,6 +105,8 @@ BAD_OUT = {
     "dangling symlink": ("dangling", "cannot create a file in dangling: No such file or directory"),
     "looping symlink": ("loop", "cannot create a file in loop: Too many levels of symbolic links"),
     "metrics.json is a folder": ("taken", "metrics.json is a folder"),
+    "a control character": ("a\x1b[2Jb", "'a\\x1b[2Jb' holds a control character"),
+    "a byte that is not text": ("a\udcffb", "'a\\udcffb' holds a control character or a byte that is not text"),
 }
 
 

@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 from curriculum.common import interrupts
-from curriculum.common.cli import shown
+from curriculum.common.cli import UNSHOWN, shown
 
 
 def content_id(data: bytes | str) -> str:
@@ -24,6 +24,9 @@ def content_id(data: bytes | str) -> str:
 def folder_problem(out, names=()) -> str | None:
     """Why the folder `out` cannot take files called `names`, or None if it can. Creates nothing."""
     out = existing = Path(out)
+    for text in [str(out), *names]:
+        if UNSHOWN.search(text):
+            return f"'{shown(text, 100)}' holds a control character or a byte that is not text; name it plainly"
     if problem := planted(out):
         return problem
     while not os.path.lexists(existing) and existing != existing.parent:
