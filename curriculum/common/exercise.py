@@ -19,9 +19,7 @@ def start(file: str) -> None:
     path = Path(file).resolve()
     if sys._getframe(1).f_globals.get("__name__") == "__main__":
         install(f"exercises.{path.stem}")
-    repo = str(path.parents[1])
-    if repo not in sys.path:
-        sys.path.insert(0, repo)
+    sys.path.insert(0, str(path.parents[1]))
 
 
 def exercises(folder) -> list:
