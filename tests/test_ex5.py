@@ -1,23 +1,14 @@
 """Exercise 5: the blob's area against closed-form determinants worked out here in exact fractions."""
 
 import math
-import subprocess
-import sys
 from fractions import Fraction
 
 import numpy as np
 import pytest
 
 import engine
-from conftest import REPO
 from curriculum.common import recording as course
 from exercises import ex5_phase_blob as ex5
-
-
-def run_ex5(*args, cwd=REPO):
-    return subprocess.run([sys.executable, "-m", "exercises.ex5_phase_blob", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=120,
-                          env={"PYTHONPATH": str(REPO), "PATH": "", "COURSE_JOURNAL": "off"})
 
 
 def exact_det(name, h):
@@ -112,15 +103,6 @@ def test_graded_both_ways(capsys):
     assert ex5.main(["--predict", "euler=grows,semi_implicit=stays,rk4=stays", "--no-rerun"]) == 0
     wrong = capsys.readouterr().out
     assert "Not quite: you said euler=grows, semi_implicit=stays, rk4=stays, but" in wrong and "rk4 shrinks" in wrong
-
-
-@pytest.mark.slow
-def test_as_a_student_runs_it_with_the_recording(tmp_path):
-    """A fresh interpreter: graded, and the recording written (what it holds: the tests below)."""
-    rrd = tmp_path / "blob.rrd"
-    right = run_ex5("--predict", "euler=grows,semi_implicit=stays,rk4=shrinks", "--rrd", str(rrd))
-    assert right.returncode == 0 and right.stderr == "", right.stderr
-    assert "Right: euler grows, semi_implicit stays, rk4 shrinks." in right.stdout and rrd.stat().st_size > 0
 
 
 def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(chapter_table, tmp_path):

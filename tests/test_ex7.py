@@ -9,26 +9,18 @@ exercise prints, with tolerances argued from the arithmetic beside each.
 """
 
 import re
-import subprocess
-import sys
 from fractions import Fraction
 
 import numpy as np
 import pytest
 
 import engine
-from conftest import REPO
+from conftest import run_exercise
 from exercises import ex7_shadow_energy as ex7
 from exercises.support import shadow
 
 EPS = np.finfo(float).eps
 RIGHT = "spring=roundoff, orbit=smaller, freefall=roundoff"
-
-
-def run_ex7(*args, cwd=REPO):
-    return subprocess.run([sys.executable, "-m", "exercises.ex7_shadow_energy", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=120,
-                          env={"PYTHONPATH": str(REPO), "PATH": "", "COURSE_JOURNAL": "off"})
 
 
 @pytest.fixture(scope="module")
@@ -322,7 +314,7 @@ def test_the_recording_opens_on_three_plots_of_the_whole_run_in_the_course_palet
 
 @pytest.mark.slow
 def test_as_a_student_runs_it_the_recording_goes_under_outputs(tmp_path):
-    result = run_ex7("--predict", RIGHT, cwd=tmp_path)
+    result = run_exercise("ex7_shadow_energy", "--predict", RIGHT, cwd=tmp_path)
     assert result.returncode == 0 and result.stderr == ""
     assert (tmp_path / "outputs" / "ch3.3-engine" / "ex7_shadow.rrd").stat().st_size > 0
     assert [p.name for p in (tmp_path / "outputs" / "ch3.3-engine").iterdir()] == ["ex7_shadow.rrd"]

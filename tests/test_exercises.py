@@ -3,17 +3,14 @@ recording it cannot write refused before it measures; then what exercises 3, 4 a
 whole run is ANSWERS.md's (tests/test_docs.py reruns it); exercise 4's full run is marked slow.
 """
 
-import os
 import re
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import engine
 import engine_referee
-from conftest import REPO
+from conftest import REPO, run_exercise
 from curriculum.common.exercise import exercises
 from exercises import ex3_halve_dt, ex4_long_run
 
@@ -21,13 +18,6 @@ FIGURE = re.compile(r"\de[-+]\d|%|\d\.\d{2}")  # a measured number: 3.2e-04, 22.
 PREDICT_THEN_RUN = [module for _, module, kind in exercises(REPO / "exercises") if kind == "predict"]
 RECORDING = {"ex5_phase_blob": "euler=grows,semi_implicit=stays,rk4=shrinks",  # those that write a recording
              "ex7_shadow_energy": "spring=roundoff, orbit=smaller, freefall=roundoff"}
-
-
-def run_exercise(module, *args, cwd):
-    """`python -m exercises.<module> ARGS`, from a scratch folder so that any file written would show."""
-    env = {**os.environ, "PYTHONPATH": str(REPO)}
-    return subprocess.run([sys.executable, "-m", f"exercises.{module}", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=300)
 
 
 def one_line(text):

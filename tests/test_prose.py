@@ -12,6 +12,7 @@ import subprocess
 import sys
 
 import pytest
+from test_docs import answers_with_their_commands
 
 from conftest import REPO
 from curriculum.common.predict import MORE
@@ -83,18 +84,13 @@ def test_a_students_page_reads_short(page, most_words):
     assert words <= 40, f"{page}: a sentence of {words} words: {sentence!r}"
 
 
-def pasted_runs() -> list:
-    """(command, pasted output) for every exercise run ANSWERS.md pastes."""
-    return re.findall(r"`(python -m exercises\.[^`]+)`[^`\n]*\n\n```\n(.*?)```", ANSWERS, flags=re.S)
-
-
 # The longer runs (exercise 4 measures for a few seconds) are timed elsewhere; the quick ones run every time.
 SLOW = ("ex4_long_run",)
 
 
 @pytest.mark.parametrize("command, pasted", [
     pytest.param(command, pasted, marks=pytest.mark.slow if any(s in command for s in SLOW) else ())
-    for command, pasted in pasted_runs()])
+    for command, pasted in answers_with_their_commands()])
 def test_each_exercise_answers_with_a_short_lesson_then_the_next_line(command, pasted):
     """Without --more: the verdict, a lesson of at most LESSON_WORDS words (the same lesson --more starts with,
     pasted in ANSWERS.md) and the Next line, last. Exercise 2's checker says "All solved." and then Next."""
