@@ -159,6 +159,20 @@ def test_closed_form_bounds_are_the_eigenvalues_of_the_engines_one_step_matrix(n
     assert checked > 60
 
 
+def test_the_bounded_intervals_are_closed_except_at_w_2():
+    """docs/damping.md and exercise 6: at an interval's end an eigenvalue has modulus 1 and the run stays bounded
+    (the four end cells of exercise 6's map), except at w = 2, where both eigenvalues are -1 and it grows."""
+    cells = {"euler": [(1.0, 1.0, True), (1.0, 2.5, True), (2.0, 4.0, False)],  # (w, c, bounded)
+             "semi_implicit": [(1.0, 1.5, True), (2.0, 0.0, False)], "implicit": [(3.0, 2.5, True), (2.0, 0.0, False)]}
+    for name, rows in cells.items():
+        assert all(c in stability_map.analytic_interval(name, w) for w, c, bounded in rows if bounded)
+        w, c, bounded = map(np.array, zip(*rows, strict=True))
+        assert np.array_equal(stability_map.stays_bounded(name, w, c, steps=20_000), bounded), name
+    assert [stability_map.analytic_interval(name, 2.0) for name in ("euler", "semi_implicit")] == [None, None]
+    text = " ".join((REPO / "docs" / "damping.md").read_text().split())
+    assert "every interval is closed" in text and "w² ≤ c ≤ 2 + w²/2" in text
+
+
 @pytest.mark.slow
 def test_the_whole_stability_table_agrees():
     """Measured bounds (runs of the engine's step, bisected) against the analytic ones to 1e-3, every integrator,

@@ -14,14 +14,19 @@ import contextlib
 import functools
 import importlib
 import io
+import json
+import math
 import re
 import shlex
 import subprocess
 import sys
 import tokenize
+from decimal import Decimal, localcontext
 
+import numpy as np
 import pytest
 
+import engine
 from conftest import REPO, run, run_engine
 from curriculum.common import predict, report
 from curriculum.common.exercise import exercises
@@ -368,8 +373,6 @@ def test_readmes_map_names_code_that_exists_where_it_says():
 
 def test_readmes_pasted_runs_are_what_the_engine_prints(tmp_path):
     """README's two pasted runs, line for line (the default run whole, but for its wall clock; the freefall's table)."""
-    import engine
-
     readme = (REPO / "README.md").read_text()
     fences = re.findall(r"^```(\w*)\n(.*?)^```$", readme, flags=re.S | re.M)  # (info string, body), in order
     blocks = [body for info, body in fences if not info and "integrator " in body]
@@ -525,10 +528,6 @@ def test_the_answers_are_what_the_commands_print_today(command, pasted):
 
 def test_metrics_json_says_0_0_where_developing_says_so():
     """docs/DEVELOPING.md: from --dt 0.004 down RK4's drift "rounds to `0.0` in the file": never `-0.0`."""
-    import json
-    import math
-
-
     assert "which rounds to `0.0` in the file" in " ".join((REPO / "docs" / "DEVELOPING.md").read_text().split())
     written = json.loads(report.metrics_text(report.rounded({"rel_final": -4.4e-13, "rel_max": [-0.0, 1e-13]})))
     assert written == {"rel_final": 0.0, "rel_max": [0.0, 0.0]}
@@ -544,29 +543,10 @@ def test_ci_builds_its_own_environment_and_leaves_the_students_venv_alone():
     assert "python3 -m venv .venv" in (REPO / "README.md").read_text()
 
 
-def test_the_ensemble_lines_read_true_for_one_member_and_just_over_the_limit(capsys, tmp_path):
-    import engine
-    from engine_ensembles import ensemble_bytes, ensemble_most_members, memory_over_limit
-
-    needed = ensemble_bytes(2000, ensemble_most_members(2000) + 1)  # the first count over the limit at 2,000 steps
-    shown = memory_over_limit(needed)  # was "1.0 GB, over the 1 GB": a need that read as the limit itself
-    assert shown.endswith(" GB, over the 1 GB") and float(shown.split()[0]) > 1.0
-    assert memory_over_limit(2.04e9) == "2.0 GB, over the 1 GB"
-    assert engine.main(["--ensemble", "1", "--no-rerun", "--out", str(tmp_path)]) == 0
-    out = capsys.readouterr().out
-    assert "1 member stepped together" in out and "holds for 1 of 1 seed\n" in out
-
-
 @pytest.mark.slow
 def test_rk4s_round_off_digits_are_what_exact_arithmetic_says():
     """docs/DEVELOPING.md: RK4's -4.5061e-11 and 5.1299e-11 are -4.5066e-11 and 5.1303e-11 with the same steps in
     50 digits."""
-    from decimal import Decimal, localcontext
-
-    import numpy as np
-
-    import engine
-
     system = engine.build_system("orbit", np.random.default_rng(0))
     with localcontext() as context:
         context.prec = 50
@@ -597,25 +577,7 @@ def test_rk4s_round_off_digits_are_what_exact_arithmetic_says():
     assert f"{drift['rel_final']:.4e}" != f"{exact_final:.4e}" and f"{drift['rel_final']:.2e}" == f"{exact_final:.2e}"
 
 
-def test_the_bounded_intervals_are_closed_except_at_w_2():
-    """docs/damping.md and exercise 6: at an interval's end an eigenvalue has modulus 1 and the run stays bounded
-    (the four end cells of exercise 6's map), except at w = 2, where both eigenvalues are -1 and it grows."""
-    import numpy as np
-
-    from exercises.support import stability_map
-
-    ends = [("euler", 1.0, 1.0), ("euler", 1.0, 2.5), ("semi_implicit", 1.0, 1.5), ("implicit", 3.0, 2.5)]
-    for name, w, c in ends:
-        low, high = stability_map.analytic_interval(name, w)
-        assert c in (low, high)
-        assert stability_map.stays_bounded(name, np.array([w]), np.array([c]), steps=20_000)[0], (name, w, c)
-    for name, c in (("euler", 4.0), ("semi_implicit", 0.0), ("implicit", 0.0)):
-        assert not stability_map.stays_bounded(name, np.array([2.0]), np.array([c]), steps=20_000)[0], (name, c)
-    assert [stability_map.analytic_interval(name, 2.0) for name in ("euler", "semi_implicit")] == [None, None]
-    text = " ".join((REPO / "docs" / "damping.md").read_text().split())
-    assert "every interval is closed" in text and "w² ≤ c ≤ 2 + w²/2" in text
-
-
+@pytest.mark.slow  # each recomputes what a quick test checks (the orders, the damped ladder, the parity)
 @pytest.mark.parametrize("tool, doc", [("orders", "docs/DEVELOPING.md"), ("damped", "docs/damping.md"),
                                        ("parity", "docs/DEVELOPING.md docs/damping.md")])
 def test_the_figures_a_maintainer_prints_by_hand_come_from_tools_and_are_the_docs(tool, doc, tmp_path):

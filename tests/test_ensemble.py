@@ -103,3 +103,13 @@ def test_the_ensemble_says_which_members_it_cannot_judge_and_why(args, block, sa
     if "1.5" in args:
         assert all(d["diverged"] == 5 and d["rel_max"] is None for d in ensemble["drift"].values())
     assert all(phrase in out for phrase in said) and not any(phrase in out for phrase in unsaid), out
+
+
+def test_the_ensemble_lines_read_true_for_one_member_and_just_over_the_limit(capsys, tmp_path):
+    needed = ensembles.ensemble_bytes(2000, ensembles.ensemble_most_members(2000) + 1)  # the first over, at 2,000 steps
+    shown = ensembles.memory_over_limit(needed)  # was "1.0 GB, over the 1 GB": a need that read as the limit itself
+    assert shown.endswith(" GB, over the 1 GB") and float(shown.split()[0]) > 1.0
+    assert ensembles.memory_over_limit(2.04e9) == "2.0 GB, over the 1 GB"
+    assert engine.main(["--ensemble", "1", "--no-rerun", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "1 member stepped together" in out and "holds for 1 of 1 seed\n" in out
