@@ -1,4 +1,5 @@
-"""What a student reads before predicting gives no answer away, and every command printed in the READMEs runs.
+"""What a student reads before predicting gives no answer away, every command printed in the READMEs runs, and
+the students' pages and the exercises' lessons read short.
 
 Every exercise's answer is read from exercises/solutions/ANSWERS.md ("The graded answer is `...`", checked
 against the runs pasted there) by the exercise's own parser, so it comes in its own form (a value per name, a
@@ -255,7 +256,7 @@ def by_exercise(text: str, heading: str) -> dict:
 
 def explanations() -> dict:
     """{number: what its runs print after the verdict: the lesson and, under --more, the whole explanation},
-    from the runs ANSWERS.md pastes (tests/test_docs.py reruns them and compares, and tests/test_prose.py checks
+    from the runs ANSWERS.md pastes (the slow test below reruns them and compares, and the lesson test checks
     that the default lesson is the one pasted)."""
     told = {}
     for number, _, _ in EXERCISES:
@@ -467,7 +468,7 @@ def filled(command: str) -> str:
 
 def run_elsewhere(command: str) -> bool:
     """A bare question is run by tests/test_exercises.py (from a scratch folder, where a file written would show),
-    ANSWERS.md's runs by tests/test_prose.py (without --more) and by the slow test below (with it)."""
+    ANSWERS.md's runs by the lesson test (without --more) and by the slow test below (with it)."""
     return command in [f"python -m exercises.{module}" for module in PREDICT_THEN_RUN] + [
         c.replace(" --more", "") for c, _ in answers_with_their_commands()]
 
@@ -591,3 +592,98 @@ def test_the_figures_a_maintainer_prints_by_hand_come_from_tools_and_are_the_doc
     pages = "".join((REPO / page).read_text() for page in doc.split())
     figures = [line for line in result.stdout.splitlines() if "orders" in line or "|q_ours" in line]
     assert figures and not [line for line in figures if line not in pages]
+
+
+# --- the students' pages read short, and every exercise answers with a short lesson (issue 25) ---
+# Pages measured as ../shared/tools/prose-metrics measures them: words of prose (outside code blocks, tables and
+# pictures), each paragraph's numerals per sentence, the longest sentence. Each exercise, run as ANSWERS.md runs
+# it but without --more: after its verdict a lesson of at most LESSON_WORDS words, the one ANSWERS.md pastes (so
+# the spoiler test reads it), then the Next line, last.
+
+NUMERAL = r"(?<![\w.])[-+]?\d[\d,]*(?:\.\d+)?(?:e[-+]?\d+)?%?"  # 2,000, 0.032%, 5.1e-11; not RK4, not "four"
+WORD = r"[A-Za-z0-9][\w'.,%/-]*"
+LESSON_WORDS = 120
+
+
+def prose(text: str) -> str:
+    """The page without its code blocks, tables and pictures."""
+    text = re.sub(r"```.*?```", "", text, flags=re.S)
+    return "\n".join(line for line in text.splitlines()
+                     if not line.lstrip().startswith("|") and not line.startswith("!["))
+
+
+def measure(text: str) -> dict:
+    """{words, densest: (numerals per sentence, paragraph), longest: (words, sentence)}, as prose-metrics counts."""
+    text = prose(text)
+    densest, longest = (0.0, ""), (0, "")
+    for paragraph in re.split(r"\n\s*\n", text):
+        if not paragraph.strip() or paragraph.strip().startswith("#"):
+            continue
+        flat = paragraph.replace("\n", " ")
+        sentences = [s for s in re.split(r"(?<=[.!?:])\s+(?=[A-Z(`*])", flat) if len(s.split()) > 3]
+        if not sentences:
+            continue
+        density = len(re.findall(NUMERAL, flat)) / len(sentences)
+        densest = max(densest, (density, flat[:80]))
+        longest = max(longest, *((len(s.split()), s[:80]) for s in sentences))
+    return {"words": len(re.findall(WORD, text)), "densest": densest, "longest": longest}
+
+
+def test_the_measure_counts_as_the_issue_does():
+    page = ("# Title\n\nOne two three four five. The run took 2,000 steps of 0.01 s: RK4 kept 5.1e-11.\n\n"
+            "```bash\npython engine.py --steps 123\n```\n\n| a | 1 |\n|---|---|\n\n![a picture](x.png)\n")
+    measured = measure(page)
+    assert measured["words"] == 1 + 5 + 11  # the heading counts; the code, the table and the picture do not
+    # 3 numerals in 2 sentences: "RK4 kept 5.1e-11." is too short to count as one, and its numeral counts
+    assert measured["densest"][0] == 1.5 and measured["longest"][0] == 8
+
+
+def test_the_measure_is_the_issues_tool_where_it_is_installed():
+    """The course's machines keep the issue's own tool beside the checkout (../shared/tools/prose-metrics)."""
+    tool = REPO.parent / "shared" / "tools" / "prose-metrics"
+    if not tool.is_file():
+        pytest.skip(f"{tool} is not on this machine: test_the_measure_counts_as_the_issue_does stands for it")
+    pages = ["README.md", "exercises/README.md"]
+    said = subprocess.run([sys.executable, str(tool), *pages], cwd=REPO, capture_output=True, text=True,
+                          timeout=60).stdout.splitlines()
+    for page, line in zip(pages, said, strict=True):
+        measured = measure((REPO / page).read_text())
+        assert line == (f"{page}: {measured['words']} words; densest paragraph {measured['densest'][0]:.1f}"
+                        f" numerals/sentence; longest sentence {measured['longest'][0]} words")
+
+
+@pytest.mark.parametrize("page, most_words", [
+    ("README.md", 900),
+    ("exercises/README.md", 800)])
+def test_a_students_page_reads_short(page, most_words):
+    """At most `most_words` words of prose, every paragraph at most 2 numerals a sentence on average, no sentence
+    over 40 words."""
+    measured = measure((REPO / page).read_text())
+    assert measured["words"] <= most_words, f"{page}: {measured['words']} words of prose, over {most_words}"
+    density, paragraph = measured["densest"]
+    assert density <= 2.0, f"{page}: {density:.1f} numerals a sentence in the paragraph {paragraph!r}"
+    words, sentence = measured["longest"]
+    assert words <= 40, f"{page}: a sentence of {words} words: {sentence!r}"
+
+
+@pytest.mark.parametrize("command, pasted", [  # exercise 4 measures for a few seconds: slow
+    pytest.param(command, pasted, marks=pytest.mark.slow if "ex4_long_run" in command else ())
+    for command, pasted in answers_with_their_commands()])
+def test_each_exercise_answers_with_a_short_lesson_then_the_next_line(command, pasted):
+    """Without --more: the verdict, a lesson of at most LESSON_WORDS words (the same lesson --more starts with,
+    pasted in ANSWERS.md) and the Next line, last. Exercise 2's checker says "All solved." and then Next."""
+    argv = [word for word in shlex.split(command)[1:] if word != "--more"]
+    result = subprocess.run([sys.executable, *argv], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0 and result.stderr == "", result.stderr
+    lines = result.stdout.rstrip("\n").splitlines()
+    assert lines[-1].startswith("Next: "), f"{command}: the run does not end with its Next line"
+    if "check_ex" in command:
+        assert lines[-2] == "All solved.", command
+        return
+    verdict = max(i for i, line in enumerate(lines) if line.startswith(("Right: ", "Not quite: ")))
+    lesson = lines[verdict + 1:-1]
+    words = len(re.findall(WORD, "\n".join(lesson)))
+    assert words <= LESSON_WORDS, f"{command}: a lesson of {words} words, over {LESSON_WORDS}"
+    assert lesson[-1] == predict.MORE and "--more" in command  # where the rest is, and ANSWERS.md pastes the rest
+    shown = "\n".join(lines[: verdict + 1] + lesson[:-1])
+    assert pasted.startswith(shown + "\n"), f"{command}: ANSWERS.md pastes another lesson than the run prints"

@@ -133,7 +133,7 @@ def test_ex4_crossover_is_measured_through_engine_simulate():
 
 
 def test_ex4_finds_the_crossover_and_grades_the_horizon():
-    """Its run as ANSWERS.md pastes it (tests/test_docs.py reruns it to the byte, tests/test_prose.py checks it is
+    """Its run as ANSWERS.md pastes it (tests/test_docs.py reruns it to the byte, its lesson test checks it is
     quiet on a pipe): the ladder's rows, more orbits at a smaller dt, the nearest power of ten graded."""
     (pasted,) = [out for command, out in answers_with_their_commands() if "-m exercises.ex4_long_run " in command]
     rows = re.findall(r"^\s*(0\.\d+)\s+(\S+)\s+([\d,]+)\s+([\d,]+)$", pasted, flags=re.M)

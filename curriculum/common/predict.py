@@ -14,7 +14,7 @@
   10,000, 10_000, 10 000, 1e4, 10k; 1.000 reads two ways and says so), `PerName` ('euler=8, rk4=1': any
   order and spacing) and `SomeOf` ('rk4, implicit', 'none', 'all'). Each has `.forms`, what a refusal prints.
 - `verdict` prints the grade and records how many items were right; `explain(lesson, more=function)` prints
-  the lesson (at most 120 words: tests/test_prose.py counts) and says that --more tells the rest; under
+  the lesson (at most 120 words: tests/test_docs.py counts) and says that --more tells the rest; under
   --more, `function()` prints any further table and returns the full explanation's lines. A run that measured
   ends with `curriculum.common.exercise.next_line`. Keep measured answers out of the docstring, --help and
   the question: tests/test_docs.py reads them for leaks.
