@@ -43,11 +43,6 @@ def read_recording(path):
     return recording, entities, settings
 
 
-def read_bytes(data, tmp_path):
-    (tmp_path / "made.rrd").write_bytes(data)
-    return read_recording(tmp_path / "made.rrd")
-
-
 def column(batches, name):
     """A column's values over all the entity's chunks, in step order."""
     rows = [row for batch in batches if name in batch.schema.names for row in batch.column(name).to_pylist()]
@@ -243,7 +238,8 @@ def test_a_new_system_or_integrator_records_before_anyone_writes_it_a_view_or_a_
     runs = {name: engine.simulate(step, system, DT, 100) for name, step in engine.integrators_for(system).items()}
     runs["verlet"] = runs["rk4"]
     data, _ = engine_recording.record(system, runs, engine.kept_steps(100), DT, run_id="new")
-    _, entities, settings = read_bytes(data, tmp_path)
+    (tmp_path / "made.rrd").write_bytes(data)
+    _, entities, settings = read_recording(tmp_path / "made.rrd")
     assert set(views_of(settings)) == {("3D", "paths"), ("TimeSeries", "energy_error")}
     colours = {name: column(entities[f"/paths/{name}/trail"], "LineStrips3D:colors")[0][0] for name in runs}
     assert len(set(colours.values())) == len(runs), "every integrator its own colour"
@@ -303,7 +299,8 @@ def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
             views.append(course.time_series(system, f"{system}: (E - E0) / |E0|", steps[-1], logged))
         return course.opening(views, steps[-1])
 
-    recording, entities, settings = read_bytes(course.recorded("zero2robot-test", fill), tmp_path)
+    (tmp_path / "made.rrd").write_bytes(course.recorded("zero2robot-test", fill))
+    recording, entities, settings = read_recording(tmp_path / "made.rrd")
     views = views_of(settings)
     assert recording.application_id == "zero2robot-test" and set(views) == {("TimeSeries", "orbit"),
                                                                            ("TimeSeries", "spring")}
