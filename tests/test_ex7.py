@@ -160,15 +160,13 @@ def test_halving_dt_divides_the_orbits_e_tilde_band_by_four_and_es_by_two():
 
 
 @pytest.mark.parametrize("system_name", ["spring", "orbit"])
-def test_explicit_euler_does_not_keep_it(system_name):
+def test_explicit_euler_does_not_keep_it_and_its_e_tilde_grows_with_the_run(system_name):
     run = shadow.measure(system_name, "euler")
     assert run["shadow_band"] > 0.9 * run["energy_band"] > 0.1  # E~ goes as far as E: 1.2 / 0.22
     assert shadow.how_far(run) == "as_far"
-
-
-def test_explicit_eulers_e_tilde_grows_with_the_run():
-    short, long = shadow.measure("spring", "euler"), shadow.measure("spring", "euler", steps=ex7.LONG_STEPS)
-    assert pinned(short["shadow_band"], 1.203) and pinned(long["shadow_band"], 595.1)
+    if system_name == "spring":
+        long = shadow.measure("spring", "euler", steps=ex7.LONG_STEPS)
+        assert pinned(run["shadow_band"], 1.203) and pinned(long["shadow_band"], 595.1)
 
 
 @pytest.mark.parametrize("system_name, wobble", [("spring", 1.000e-2), ("orbit", 2.654e-4)])
