@@ -104,11 +104,16 @@ def words_of(sentence: str) -> list:
     return [w.removesuffix("'s") for w in re.findall(r"[a-z0-9_~][\w~.,'/-]*[\w~]|[a-z0-9~]", sentence.lower())]
 
 
-def where(words: list, find, longest: int = predict.LONGEST_NAME) -> list:
-    """[(start, end, what)] for every run of words that `find` names, the longest run first."""
-    found, at = [], 0
+def where(words: list, names: predict.OneOf) -> list:
+    """[(start, end, what)] for every run of words that one of `names` names, the longest run first."""
+    return runs_named(tuple(words), tuple(names.names))
+
+
+@functools.cache  # the same sentences are searched for every claim of every exercise
+def runs_named(words: tuple, names: tuple) -> list:
+    find, found, at = predict.OneOf(names).find, [], 0
     while at < len(words):
-        for length in range(min(longest, len(words) - at), 0, -1):
+        for length in range(min(predict.LONGEST_NAME, len(words) - at), 0, -1):
             name = find(" ".join(words[at:at + length]))
             if name is not None:
                 found.append((at, at + length, name))
@@ -147,17 +152,17 @@ def claims(truth, answers, question: str):
 
                 def said(sentence, name=name, value=value, values=values, keys=keys):
                     words = words_of(sentence)
-                    if {w[2] for w in where(words, values.find)} == set(values.names):
+                    if {w[2] for w in where(words, values)} == set(values.names):
                         return False  # the choices listed, as the question lists them: no claim
-                    return near([w for w in where(words, names.find) if w[2] == name],
-                                [w for w in where(words, values.find) if w[2] == value]) and \
+                    return near([w for w in where(words, names) if w[2] == name],
+                                [w for w in where(words, values) if w[2] == value]) and \
                         any(stem(w) in keys for w in words)
             else:
                 keys, forms = key_stems(question, names.names), number_forms(value)
 
                 def said(sentence, name=name, forms=forms, keys=keys):
                     words = words_of(sentence)
-                    return near([w for w in where(words, names.find) if w[2] == name],
+                    return near([w for w in where(words, names) if w[2] == name],
                                 [(i, i + 1) for i, w in enumerate(words) if w.split("-")[0] in forms]) and \
                         any(stem(w) in keys for w in words)
             yield f"{name}={value}", said
@@ -167,7 +172,7 @@ def claims(truth, answers, question: str):
         for name in sorted({truth} if isinstance(truth, str) else truth):
             def said(sentence, name=name, keys=keys):
                 words = words_of(sentence)
-                named = {w[2] for w in where(words, names.find)}
+                named = {w[2] for w in where(words, names)}
                 return name in named and named != set(names.names) and \
                     len({stem(w) for w in words} & keys) >= min(3, len(keys))
             yield name, said
