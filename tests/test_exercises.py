@@ -51,17 +51,14 @@ def test_more_goes_with_a_prediction(tmp_path):
 
 @pytest.mark.parametrize("module, bad, forms", [
     ("ex1_band", "euler=grows", "name=word for each of euler, semi_implicit, rk4"),
-    ("ex1_band", "euler=grows, semi_implicit=shrinks, rk4=grows", "one of grows, stays"),
     ("ex3_halve_dt", "euler=3, semi_implicit=2, rk4=16", "one of 1, 2, 4, 8, 16, 32"),
-    ("ex3_halve_dt", "euler=2", "name=value for each of euler, semi_implicit, rk4"),
     ("ex4_long_run", "12", "one of 10, 100, 1,000, 10,000, 100,000 (written 10000, 10,000, 10_000, 1e4 or 10k,"),
-    ("ex5_phase_blob", "euler=big,semi_implicit=stays,rk4=shrinks", "one of grows, stays, shrinks"),
     ("ex5_phase_blob", "euler=grows,euler=grows,rk4=stays", "euler is given twice"),
     ("ex6_stiff_damping", "rk4, verlet", "'verlet' is not an integrator here"),
-    ("ex7_shadow_energy", "spring=roundoff", "name=word for each of spring, orbit, freefall"),
     ("ex7_shadow_energy", "spring=?,orbit=?,freefall=?", "put your value where the ? is"),
 ])
 def test_a_refused_prediction_is_one_line_that_lists_the_accepted_forms(module, bad, forms, tmp_path):
+    """Each exercise, one way to get it wrong (every refusal's wording: tests/test_predict.py)."""
     result = run_exercise(module, "--predict", bad, cwd=tmp_path)
     assert result.returncode == 2 and result.stdout == ""
     assert len(result.stderr.splitlines()) == 1 and forms in result.stderr and "Traceback" not in result.stderr
