@@ -122,16 +122,12 @@ def test_graded_both_ways(capsys):
 def test_the_recording_opens_the_courses_way_with_every_blob_framed_and_named(chapter_table, blob):
     """Like engine.py's: the whole run, the cursor on the last step, panels closed; every frame of every blob
     inside the camera's view, the axes named at their own tips, a key naming each integrator in its colour."""
-    rrb = pytest.importorskip("rerun.blueprint")
-    from test_recording import column, opens_on, packed, views_of
+    from test_recording import assert_opens_the_courses_way, column, packed, views_of
 
     entities, settings = blob
-    assert settings["/blueprint_panel"]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
+    assert_opens_the_courses_way(settings, ex5.STEPS)
     views = views_of(settings)
-    plots = {("TimeSeries", f"area/{name}") for name in chapter_table}
-    assert set(views) == {("3D", "phase"), *plots}
-    assert all(views[plot]["TimeAxis:view_range"] == opens_on(ex5.STEPS) for plot in plots)
+    assert set(views) == {("3D", "phase"), *(("TimeSeries", f"area/{name}") for name in chapter_table)}
     camera = views[("3D", "phase")]
     target, eye = np.array(camera["EyeControls3D:look_target"]), np.array(camera["EyeControls3D:position"])
     assert eye[1] == pytest.approx(target[1]) and eye[2] > target[2], "straight down: v_x up the screen"

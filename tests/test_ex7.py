@@ -291,20 +291,18 @@ def test_the_recording_holds_e_and_e_tilde_worst_so_far_at_every_step(recording,
 
 def test_the_recording_opens_on_three_plots_of_the_whole_run_in_the_course_palette(recording):
     """Each plot from its floor to an error as large as the quantity; E in semi-implicit Euler's colour, E~ (no
-    integrator) in a spare one; opened the course's way (tests/test_recording.py checks course.opening)."""
-    import rerun.blueprint as rrb
-    from test_recording import column, opens_on, packed, views_of
+    integrator) in a spare one; opened the course's way."""
+    from test_recording import assert_opens_the_courses_way, column, packed, views_of
 
     from curriculum.common import recording as course
 
     entities, settings, chapter = recording
     views = views_of(settings)
     assert set(views) == {("TimeSeries", name) for name in shadow.SYSTEMS}
+    assert_opens_the_courses_way(settings, shadow.STEPS)
     for (_, origin), props in views.items():
-        assert props["TimeAxis:view_range"] == opens_on(shadow.STEPS), f"{origin}: all the steps"
         low, high = props["ScalarAxis:range"]
         assert low < np.log10(chapter[origin]["roundoff"]) and high > 0.0, origin
-    assert settings["/time_panel"]["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
     assert column(entities["/orbit/energy"], "SeriesLines:colors")[0][0] == packed(course.COLOURS["semi_implicit"])
     e_tilde = column(entities["/orbit/energy_shadow"], "SeriesLines:colors")[0][0]
     assert e_tilde in [packed(c) for c in course.SPARE_COLOURS], "E~ is no integrator: a colour none of them has"

@@ -55,6 +55,20 @@ def opens_on(last_step):
     return {"start": 0, "end": last_step + int(np.ceil(course.END_ROOM * last_step))}
 
 
+def assert_opens_the_courses_way(settings, last_step):
+    """course.opening: every plot over the whole run, the side panels folded, the cursor on the step timeline
+    following to the last step."""
+    for (kind, origin), props in views_of(settings).items():
+        if kind == "TimeSeries":
+            assert props["TimeAxis:view_range"] == opens_on(last_step), f"{origin} opens on the whole run"
+    for panel in ("/blueprint_panel", "/selection_panel"):
+        assert settings[panel]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    time_panel = settings["/time_panel"]
+    assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
+    assert time_panel["TimePanelBlueprint:timeline"] == "step"
+    assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
+
+
 def views_of(settings):
     """{(class, origin): {archetype field: value, ...}} for every view in the blueprint."""
     views = {}
@@ -144,22 +158,16 @@ def test_each_system_opens_on_its_own_views_and_every_plot_on_the_whole_run(reco
         assert set(views) == EXPECTED_VIEWS[system_name], "the views this system's lesson needs, and no others"
     else:  # a system declared later, before anyone chose its views: the default ones
         assert ("TimeSeries", "energy_error") in views, views
+    assert_opens_the_courses_way(settings, STEPS)
     for (kind, origin), props in views.items():
         if kind != "TimeSeries":
             continue
-        assert props["TimeAxis:view_range"] == opens_on(STEPS), f"{origin} opens on all the steps"
         low, high = props["ScalarAxis:range"]
         values = np.concatenate([np.ravel(column(batches, "Scalars:scalars"))
                                  for path, batches in entities.items() if path.startswith(f"/{origin}/")])
         assert low < values.min() and values.max() < high, f"{origin}: every value on screen"
         assert props["PlotInteraction:tooltip_mode"] == rrb.components.TooltipMode.All.value
-    for panel in ("/blueprint_panel", "/selection_panel"):
-        assert settings[panel]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    time_panel = settings["/time_panel"]
-    assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
-    assert time_panel["TimePanelBlueprint:timeline"] == "step"
-    assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
-    assert time_panel["TimePanelBlueprint:fps"] * course.PLAYBACK_SECONDS == pytest.approx(STEPS)
+    assert settings["/time_panel"]["TimePanelBlueprint:fps"] * course.PLAYBACK_SECONDS == pytest.approx(STEPS)
 
 
 @pytest.mark.parametrize("system_name", SPATIAL)
@@ -220,9 +228,7 @@ def test_long_runs_are_thinned_in_the_recording(tmp_path, capsys, monkeypatch):
     assert len(logged_steps) <= engine.MAX_POINTS_PER_SERIES + 1
     assert logged_steps[0] <= 3 and logged_steps[-1] == steps
     assert column(entities["/orbit/euler/body"], "step") == engine.kept_steps(steps, 3).tolist()
-    for (kind, origin), props in views_of(settings).items():
-        if kind == "TimeSeries":
-            assert props["TimeAxis:view_range"] == opens_on(steps), f"{origin} opens on the whole run"
+    assert_opens_the_courses_way(settings, steps)
 
 
 def test_a_new_system_or_integrator_records_before_anyone_writes_it_a_view_or_a_colour(tmp_path):
@@ -305,6 +311,7 @@ def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
     assert recording.application_id == "zero2robot-test" and set(views) == {("TimeSeries", "orbit"),
                                                                            ("TimeSeries", "spring")}
     assert views[("TimeSeries", "orbit")]["TimeAxis:view_range"] == {"start": 0, "end": 312}, "4% past the end"
+    assert_opens_the_courses_way(settings, 300)
     low, high = views[("TimeSeries", "orbit")]["ScalarAxis:range"]
     assert low < -0.99 and high > 0.99, "fitted to every value logged"
     assert column(entities["/orbit/verlet"], "SeriesLines:names")[0] == ["verlet"]
