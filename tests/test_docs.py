@@ -54,12 +54,12 @@ def answers_with_their_commands() -> list:
 
 
 @functools.cache
-def asked(module_name: str) -> tuple:
-    """(bare question's output, what its ask() declared: {"question", "answers"}) for a predict-then-run exercise."""
-    module = importlib.import_module(f"exercises.{module_name}")
+def asked(module_name: str, *argv: str) -> tuple:
+    """(what `python -m exercises.<module_name> ARGV` prints, run here, and what its ask() declared: {"question",
+    "answers"}); bare, a predict-then-run exercise's question; with --help, its help."""
     out = io.StringIO()
     with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
-        module.main([])
+        importlib.import_module(f"exercises.{module_name}").main(list(argv))
     return out.getvalue(), predict.asked()
 
 
@@ -195,7 +195,7 @@ def measured_figures(number: int) -> set:
     blocks = re.findall(r"```\n(.*?)```", section(f"Exercise {number}"), flags=re.S)
     numbers = set(re.findall(r"\d[\d,]*\.\d+(?:e[-+]\d+)?(?![.\d])|\d{1,3}(?:,\d{3})+|\b\d{3,}\b", "".join(blocks)))
     module_name = next(name for n, name, _ in EXERCISES if n == number)
-    inputs = " ".join([asked(module_name)[0], help_of(module_name)]) if number in graded_answers() else ""
+    inputs = " ".join([asked(module_name)[0], asked(module_name, "--help")[0]]) if number in graded_answers() else ""
     def digits(n):  # significant ones: 1.99 and 727 have three, dt 0.25 two, 2,000 steps one
         mantissa = re.sub(r"e.*", "", n)
         return len(re.sub(r"\D|^[0.]+", "", mantissa if "." in mantissa else mantissa.rstrip("0,")))
@@ -232,14 +232,6 @@ def leaks_in(text: str, found: list) -> list:
 
 
 # --- what a student reads before each exercise ---
-
-
-def help_of(module_name: str) -> str:
-    module = importlib.import_module(f"exercises.{module_name}")
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
-        module.main(["--help"])
-    return out.getvalue()
 
 
 def without_output_blocks(text: str) -> str:
@@ -302,11 +294,11 @@ def read_before(number: int) -> dict:
         if module_name == PRISTINE_STUB.stem:  # the stub as a student first opens it: the pristine copy
             texts["exercises/ex2_integrators.py docstring"] = ast.get_docstring(ast.parse(PRISTINE_STUB.read_text()))
             checker = f"check_ex{n}"
-            texts[f"python -m exercises.{checker} --help"] = help_of(checker)
+            texts[f"python -m exercises.{checker} --help"] = asked(checker, "--help")[0]
             texts[f"exercises/{checker}.py docstring"] = importlib.import_module(f"exercises.{checker}").__doc__
             continue
         texts[f"exercises/{module_name}.py docstring"] = importlib.import_module(f"exercises.{module_name}").__doc__
-        texts[f"python -m exercises.{module_name} --help"] = help_of(module_name)
+        texts[f"python -m exercises.{module_name} --help"] = asked(module_name, "--help")[0]
         texts[f"python -m exercises.{module_name} (bare question)"] = asked(module_name)[0]
     return texts
 
