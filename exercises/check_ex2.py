@@ -23,7 +23,6 @@ import numpy as np
 
 import engine
 from curriculum.common import student_code
-from curriculum.common.student_code import agrees
 from exercises.support import ex2_cases
 from exercises.support.ex2_mistakes import FLOOR, MISTAKES
 
@@ -63,6 +62,19 @@ def tasks(name: str) -> list:
             *({"function": name, "group": name, "kind": "run", **run} for run in [*chapter, *ladders, dragged])]
 
 
+def agrees(mine, theirs):
+    """Per row: equal up to round-off (1e-9 of the size), so any order of the same arithmetic agrees."""
+    with np.errstate(all="ignore"):
+        return (np.abs(mine - theirs) <= 1e-9 * np.maximum(1.0, np.abs(theirs))).reshape(len(mine), -1).all(axis=1)
+
+
+def gaps(mine, theirs):
+    """Per row of a run: the largest difference from the engine's, relative to the run's largest value."""
+    with np.errstate(all="ignore"):
+        gap = np.max(np.abs(mine - theirs), axis=1) / max(1.0, float(np.max(np.abs(theirs))))
+    return np.where(np.isfinite(gap), gap, np.inf)
+
+
 class Measured:
     """One function's numbers beside the engine's, and the figures its messages quote."""
 
@@ -76,7 +88,7 @@ class Measured:
                      for r, t in zip(results[1:], self.tasks[1:], strict=True)]
         self.engine_runs = [np.array(r["rows"]) for r in references[1:]]
         self.reused = next((r["reused"] for r in results[1:] if r["reused"]), None)
-        self.gaps = [student_code.gaps(a, b) for a, b in zip(self.runs, self.engine_runs, strict=True)]
+        self.gaps = [gaps(a, b) for a, b in zip(self.runs, self.engine_runs, strict=True)]
 
     def order(self, system: str, runs=None) -> tuple[float, float, float]:
         """(error at the smaller dt, what halving dt divides it by, order) against the exact motion."""
@@ -214,9 +226,9 @@ def every() -> list:
     return [task for name in METHODS for task in tasks(name)]
 
 
-def check(path: Path) -> tuple[dict, list[str], student_code.Run]:
-    """({function: solved}, one message per function, the run) for a file that compiles."""
-    run = student_code.collect(path, "exercises.support.ex2_cases", every(), PROG, TIME_LIMIT)
+def check(path: Path, run: student_code.Run | None = None) -> tuple[dict, list[str], student_code.Run]:
+    """({function: solved}, one message per function, the run) for a file that compiles (or for its `run`)."""
+    run = run or student_code.collect(path, "exercises.support.ex2_cases", every(), TIME_LIMIT)
     judged = [judge(name, path, run, [i for i, t in enumerate(every()) if t["function"] == name]) for name in METHODS]
     return dict(zip(METHODS, (solved for solved, _ in judged), strict=True)), [message for _, message in judged], run
 

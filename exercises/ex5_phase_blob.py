@@ -24,9 +24,8 @@ import numpy as np
 
 import engine
 from curriculum.common import recording as course
-from curriculum.common import write_atomic
 from curriculum.common.cli import OneLineParser
-from curriculum.common.outputs import one_line_failures
+from curriculum.common.outputs import one_line_failures, write_atomic
 from curriculum.common.predict import PerName, ask, explain, verdict
 from curriculum.common.viewer import recording_refused
 

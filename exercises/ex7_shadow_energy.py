@@ -25,9 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from curriculum.common import write_atomic
 from curriculum.common.cli import OneLineParser
-from curriculum.common.outputs import one_line_failures
+from curriculum.common.outputs import one_line_failures, write_atomic
 from curriculum.common.predict import PerName, ask, explain, verdict
 from curriculum.common.viewer import recording_refused
 from exercises.support import shadow

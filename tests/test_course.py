@@ -1,9 +1,6 @@
 """The student's course flow: the journal (every prediction recorded before its answer), the board, reset and
-hand-in, with real processes and real signals. The teacher's grader: tests/test_grading.py.
-
-Every test keeps its journal in its own scratch folder (COURSE_JOURNAL); conftest.py turns recording off for the
-rest of the suite and checks that the checkout's own journal is never written.
-"""
+hand-in, with real processes and real signals (the grader: tests/test_grading.py). Every test keeps its journal in
+a scratch folder (COURSE_JOURNAL); conftest.py turns recording off for the rest and guards the checkout's journal."""
 
 import getpass
 import json
@@ -25,7 +22,7 @@ import pytest
 from conftest import REPO
 from curriculum.common import journal
 from curriculum.common.cli import OneLineParser
-from curriculum.common.exercise import EXERCISES, READ_FIRST, READ_ON, announce, command, exercises, next_line, titles
+from curriculum.common.exercise import EXERCISES, READ_FIRST, READ_ON, announce, command, exercises, titles
 from curriculum.common.predict import OneOf, ask, verdict
 from curriculum.grading import score
 
@@ -60,11 +57,8 @@ def predicted(path: Path, module: str, answer: str, right: bool = True, because:
 
 def test_the_prediction_is_on_disk_before_the_first_figure_and_a_ctrl_c_keeps_it(tmp_path):
     """Exercise 1 measures for a second or more: its journal is read while it runs, before it has printed anything,
-    then Ctrl-C stops it. The record stays, the line says so, and the journal names no user, host or path.
-
-    The Ctrl-C comes 0.3 s after the record, once numpy.random has loaded (in about 10 ms): a SIGINT that lands
-    inside that import (Cython's module set-up) is lost or becomes an ImportError, in any program that loads it
-    inside main(). That is numpy's and the signal guard's, reported; it is not this test's subject."""
+    then Ctrl-C stops it. The record stays, the line says so, and the journal names no user, host or path. The
+    Ctrl-C comes 0.3 s after the record, once numpy.random has loaded: a SIGINT inside that import is numpy's."""
     path = tmp_path / "journal.jsonl"
     env = {**os.environ, "COURSE_JOURNAL": str(path), "PYTHONUNBUFFERED": "1", "USER": "student-name-x"}
     child = subprocess.Popen([sys.executable, "-m", "exercises.ex1_band", "--predict",
@@ -73,10 +67,9 @@ def test_the_prediction_is_on_disk_before_the_first_figure_and_a_ctrl_c_keeps_it
     deadline = time.monotonic() + 60
     while not (path.exists() and '"predict"' in path.read_text()) and time.monotonic() < deadline:
         time.sleep(0.005)
+    time.sleep(0.3)
     assert child.poll() is None, "the exercise had already ended: nothing was read while it ran"
     assert select.select([child.stdout], [], [], 0)[0] == [], "a figure was printed before the record was read"
-    time.sleep(0.3)
-    assert child.poll() is None and select.select([child.stdout], [], [], 0)[0] == []
     child.send_signal(signal.SIGINT)
     out, err = child.communicate(timeout=60)
     assert child.returncode == 130 and out == "" and "Traceback" not in err
@@ -91,26 +84,34 @@ def test_the_prediction_is_on_disk_before_the_first_figure_and_a_ctrl_c_keeps_it
     assert journal.read(path.read_bytes()).edited is None
 
 
-@pytest.mark.parametrize("planted", ["symlink", "folder"])
+@pytest.mark.parametrize("planted", ["symlink", "folder", "sticky"])
 def test_a_journal_that_cannot_be_written_costs_one_line_and_the_exercise_runs(planted, tmp_path):
-    """A symbolic link planted where the journal goes is never followed: its target stays as it was."""
+    """A symbolic link planted where the journal goes is never followed, nor another user's file in a sticky folder
+    (like /tmp): what is there stays as it was."""
     path, target = tmp_path / "journal.jsonl", tmp_path / "elsewhere.txt"
     target.write_text("not the journal\n")
     if planted == "symlink":
         path.symlink_to(target)
-    else:
+    elif planted == "folder":
         path = tmp_path / "missing" / "journal.jsonl"
+    else:
+        if os.geteuid() != 0:
+            pytest.skip("a file that belongs to another user needs root")
+        (tmp_path / "shared").mkdir(mode=0o1777)
+        (tmp_path / "shared").chmod(0o1777)
+        path = target = target.rename(tmp_path / "shared" / "journal.jsonl")
+        os.chown(path, 65533, 65533)
     result = run("exercises.ex6_stiff_damping", "--predict", "rk4", journal_path=path)
-    assert result.returncode == 0 and "Not quite" in result.stdout and result.stdout.rstrip().endswith(
-        next_line(EXERCISES, 6))
+    assert result.returncode == 0 and "Not quite" in result.stdout
+    assert result.stdout.splitlines()[-1] == journal.next_line(6, journal.Journal())  # the one after, the board blind
     assert result.stderr.count("\n") == 1 and result.stderr.startswith("note: nothing was recorded in the journal")
     assert ("symbolic link" in result.stderr) == (planted == "symlink")
+    assert ("sticky folder" in result.stderr) == (planted == "sticky")
     assert target.read_text() == "not the journal\n"
 
 
 def test_with_recording_off_a_prediction_says_so_at_a_terminal():
-    """COURSE_JOURNAL=off: one line on the terminal (stderr a tty) says nothing was recorded; piped, stderr stays empty
-    as every exercise's run is tested."""
+    """COURSE_JOURNAL=off: one line on the terminal (stderr a tty); piped, stderr stays empty (test_exercises.py)."""
     leader, follower = pty.openpty()
     result = subprocess.run([sys.executable, "-m", "exercises.ex6_stiff_damping", "--predict", "rk4"], cwd=REPO,
                             env={**os.environ, "COURSE_JOURNAL": "off"}, stdout=subprocess.PIPE, stderr=follower,
@@ -121,13 +122,15 @@ def test_with_recording_off_a_prediction_says_so_at_a_terminal():
         " recorded\r\n", said
 
 
-def test_bad_input_records_nothing(tmp_path):
-    path = tmp_path / "journal.jsonl"
-    result = run("exercises.ex5_phase_blob", "--predict", "euler=grows,semi_implicit=stays,rk4=stays",
-                 "--rrd", str(tmp_path / "x.txt"), journal_path=path)
-    assert result.returncode == 2 and len(result.stderr.splitlines()) == 1 and not path.exists()
-    result = run("exercises.ex6_stiff_damping", "--because", "why not", journal_path=path)
-    assert result.returncode == 2 and "--because goes with --predict" in result.stderr and not path.exists()
+@pytest.mark.parametrize("args, said", [
+    (["exercises.ex5_phase_blob", "--predict", "euler=grows,semi_implicit=stays,rk4=stays", "--rrd", "x.txt"], ".rrd"),
+    (["exercises.ex6_stiff_damping", "--because", "why not"], "--because goes with --predict"),
+    (["exercises.ex6_stiff_damping", "--predict", "rk4, verlet"], "'verlet' is not an integrator here"),
+    (["exercises.ex6_stiff_damping"], ""),  # the bare question: asking is not committing
+])
+def test_bad_input_or_a_bare_question_records_nothing(args, said, tmp_path):
+    result, path = run(*args, journal_path=tmp_path / "journal.jsonl"), tmp_path / "journal.jsonl"
+    assert result.returncode == (2 if said else 0) and said in result.stderr and not path.exists()
 
 
 def test_a_changed_answer_is_attempt_2_the_same_one_a_replay_and_the_first_counts(tmp_path, monkeypatch, capsys):
@@ -145,7 +148,7 @@ def test_a_changed_answer_is_attempt_2_the_same_one_a_replay_and_the_first_count
     assert kinds == [("journal", None), ("predict", 1), ("marks", None), ("predict", 2), ("marks", None),
                      ("replay", None)]  # the replay's marks are attempt 1's, already there
     book = journal.load()
-    said, done, _ = journal.status(book, 4, "ex4_long_run", "predict")
+    said, done = journal.status(book, 4, "ex4_long_run", "predict")
     assert done and said == f"predicted {first_time}: 0 of 1 right, 2 attempts"
     row = score._row("s", book, {}, {}, score.truths(), None, 4, "ex4_long_run", "predict")  # the grader's view
     assert (row["first_prediction"], row["attempts"], row["right"], row["points"]) == ("a", 2, 0, 1)
@@ -190,8 +193,7 @@ def test_ten_runs_started_together_leave_every_record_once(tmp_path):
     once, every repeat a replay, every answer graded once, and the chain holds."""
     path = tmp_path / "journal.jsonl"
     names = ["euler", "semi_implicit", "rk4", "implicit"]
-    answers = [",".join(n for i, n in enumerate(names) if k >> i & 1) or "none" for k in range(8)]
-    answers += answers[:2]
+    answers = [",".join(n for i, n in enumerate(names) if k >> i & 1) or "none" for k in [*range(8), 0, 1]]
     env = {**os.environ, "COURSE_JOURNAL": str(path)}
     runs = [subprocess.Popen([sys.executable, "-m", "exercises.ex6_stiff_damping", "--predict", answer], cwd=REPO,
                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -211,14 +213,20 @@ def test_ten_runs_started_together_leave_every_record_once(tmp_path):
 # --- the board, Next:, reset, hand-in ---
 
 
+def board_row(number: int, path: Path, cwd: Path = REPO) -> str:
+    return next(line for line in run("exercises", journal_path=path, cwd=cwd).stdout.splitlines()
+                if line.startswith(f"{number:>3}."))
+
+
 def test_next_lines_come_from_the_exercises_on_disk_and_their_readme():
-    named = titles(EXERCISES)
+    """With no journal to read (recording off), a run's Next line names the exercise after it."""
+    named, blind = titles(EXERCISES), journal.Journal()
     assert sorted(named) == [n for n, _, _ in FOUND] and named[3] == "Halve the timestep"
     for (number, _, _), (following, module, kind) in zip(FOUND, FOUND[1:], strict=False):
         first = READ_FIRST.get(following, "")  # engine.py, where README sends the student to read it
         said = f'Next: {first}exercise {following}, "{named[following]}": {command(module, kind)}'
-        assert next_line(EXERCISES, number) == said
-    assert READ_ON in next_line(EXERCISES, FOUND[-1][0]) and (REPO / READ_ON.split(",")[0]).is_file()
+        assert journal.next_line(number, blind) == said
+    assert READ_ON in journal.next_line(FOUND[-1][0], blind) and (REPO / READ_ON.split(",")[0]).is_file()
     for _, module, kind in FOUND:
         if kind == "code":  # what --reset puts back and what the grader recognises
             assert (EXERCISES / "support" / "pristine" / f"{module}.py").is_file(), module
@@ -250,40 +258,26 @@ def test_the_board_counts_to_seven_with_the_next_command_at_each_step(tmp_path, 
     assert loaded.stdout.splitlines()[-1] == "[]"
 
 
-def test_a_code_exercise_changed_since_it_was_solved_says_so(tmp_path):
-    """The board follows the checks of the exercise's own file: checking another file (a scratch copy, as
-    exercises/README.md invites) leaves a solved exercise solved; changing the own file since says so."""
+def test_the_checker_records_each_check_and_the_board_follows_the_own_file(tmp_path):
+    """Each check is a record (its parts and the file's sha256, never its code); the checker ends with its own
+    command until solved, then with the board's Next line. Checking a scratch file (as exercises/README.md invites)
+    leaves a solved exercise solved; changing the exercise's own file since says so."""
     root, path = scratch_checkout(tmp_path), tmp_path / "journal.jsonl"
-    mine = root / "exercises" / "ex2_integrators.py"
-
-    def board_row():
-        return next(line for line in run("exercises", journal_path=path, cwd=root).stdout.splitlines()
-                    if line.startswith("  2."))
-
+    mine, planted = root / "exercises" / "ex2_integrators.py", REPO / "tests" / "planted" / "rk4_equal_weights.py"
     shutil.copyfile(SOLUTION, mine)
-    assert run("exercises.check_ex2", journal_path=path, cwd=root).returncode == 0
-    assert " solved " in board_row() + " "
-    scratch = run("exercises.check_ex2", str(REPO / "tests" / "planted" / "rk4_equal_weights.py"),
-                  journal_path=path, cwd=root)
-    assert scratch.returncode == 1 and [r["own"] for r in lines(path) if r["kind"] == "check"] == [True, False]
-    assert " solved " in board_row() + " " and "changed" not in board_row()
+    solved = run("exercises.check_ex2", journal_path=path, cwd=root)
+    assert solved.returncode == 0 and solved.stdout.splitlines()[-1] == announce(EXERCISES, *FOUND[0])
+    scratch = run("exercises.check_ex2", str(planted), journal_path=path, cwd=root)  # its own command, until solved
+    assert scratch.returncode == 1 and scratch.stdout.endswith(f"Next: python -m exercises.check_ex2 {planted}\n")
+    checks = [r for r in lines(path) if r["kind"] == "check"]
+    assert [(r["own"], r["solved"]) for r in checks] == [(True, True), (False, False)]
+    assert checks[1]["parts"] == {"semi_implicit_step": True, "rk4_step": False}
+    assert len(checks[1]["sha256"]) == 64 and "def " not in path.read_text()
+    assert " solved " in board_row(2, path, root) + " " and "changed" not in board_row(2, path, root)
     shutil.copyfile(STUB, mine)
-    assert board_row().endswith(", but the file has changed since")
+    assert board_row(2, path, root).endswith(", but the file has changed since")
     assert run("exercises.check_ex2", journal_path=path, cwd=root).returncode == 1
-    assert board_row().endswith(": semi_implicit_step not yet, rk4_step not yet")
-
-
-def test_the_checker_records_each_check_and_ends_with_its_next_line(tmp_path):
-    path = tmp_path / "journal.jsonl"
-    planted = "tests/planted/rk4_equal_weights.py"  # as the student typed it, from the checkout
-    result = run("exercises.check_ex2", planted, journal_path=path)
-    assert result.returncode == 1 and result.stdout.splitlines()[-1] == f"Next: python -m exercises.check_ex2 {planted}"
-    solved = run("exercises.check_ex2", str(REPO / "exercises" / "solutions" / "ex2_integrators.py"), journal_path=path)
-    board = run("exercises", journal_path=path).stdout.splitlines()[-1]
-    assert solved.returncode == 0 and solved.stdout.splitlines()[-1] == board == announce(EXERCISES, *FOUND[0])
-    check, _ = [r for r in lines(path) if r["kind"] == "check"]
-    assert check["parts"] == {"semi_implicit_step": True, "rk4_step": False} and not check["solved"]
-    assert len(check["sha256"]) == 64 and "def " not in path.read_text()
+    assert board_row(2, path, root).endswith(": semi_implicit_step not yet, rk4_step not yet")
 
 
 def scratch_checkout(tmp_path: Path) -> Path:
@@ -302,13 +296,10 @@ def test_reset_starts_over_keeps_the_records_and_asks_before_touching_exercise_2
     predicted(path, "ex3_halve_dt", "a", monkeypatch=monkeypatch)
     reset = run("exercises", "--reset", "3", journal_path=path, cwd=root)
     assert reset.returncode == 0 and "Exercise 3 starts over" in reset.stdout
-    row = next(line for line in run("exercises", journal_path=path, cwd=root).stdout.splitlines()
-               if line.startswith("  3."))
-    assert row.endswith("  not tried")
+    assert board_row(3, path, root).endswith("  not tried")
     predicted(path, "ex3_halve_dt", "b", monkeypatch=monkeypatch)
     assert [r.get("attempt") for r in lines(path) if r["kind"] == "predict"] == [1, 1]  # a new round
-    row = next(line for line in run("exercises", journal_path=path, cwd=root).stdout.splitlines()
-               if line.startswith("  3."))  # what the grade counts: the first prediction, made before the reset
+    row = board_row(3, path, root)  # what the grade counts: the first prediction, made before the reset
     assert row.endswith(": 1 of 1 right, 2 attempts; the grade counts this first one, from before your reset"), row
 
     mine = root / "exercises" / "ex2_integrators.py"

@@ -1,7 +1,8 @@
 """The checker's runner (curriculum/common/student_code.py), with real processes and real signals: nothing of the
 student's file runs on however the checker ends, one verdict per file (a fixed hash seed), prints that cost
-nothing, a crash named by its signal, a sentence for every file that is not source."""
+nothing, a crash named by its signal, a time limit for the import and another for the tasks."""
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -20,7 +21,7 @@ SLEEPER = "import subprocess, sys\nsubprocess.Popen([sys.executable, '-c', 'impo
 
 def collect(tmp_path, source: str, tasks=({"x": 1},), **kwargs) -> student_code.Run:
     (tmp_path / "mine.py").write_text(source)
-    return student_code.collect(tmp_path / "mine.py", "tests.collector_for_tests", list(tasks), "test", **kwargs)
+    return student_code.collect(tmp_path / "mine.py", "tests.collector_for_tests", list(tasks), **kwargs)
 
 
 def left_behind(scratch) -> list:
@@ -28,12 +29,18 @@ def left_behind(scratch) -> list:
     and what it starts inherits it, even once removed): what a checker run left running."""
     found = []
     for entry in filter(str.isdigit, os.listdir("/proc")):
-        try:
-            if os.readlink(f"/proc/{entry}/cwd").startswith(f"{scratch}/"):
-                found.append(int(entry))
-        except OSError:
-            pass
+        with contextlib.suppress(OSError):  # a process that ended meanwhile
+            found += [int(entry)] if os.readlink(f"/proc/{entry}/cwd").startswith(f"{scratch}/") else []
     return found
+
+
+def gone(scratch) -> bool:
+    """Whether nothing is left in `scratch` within 30 s (on a loaded machine, ending a process takes a moment)."""
+    for _ in range(600):
+        if not left_behind(scratch) and not os.listdir(scratch):
+            return True
+        time.sleep(0.05)
+    return False
 
 
 @pytest.mark.parametrize("number, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143), (signal.SIGKILL, -9)])
@@ -50,33 +57,14 @@ def test_however_the_checker_ends_nothing_of_the_file_runs_on_and_no_scratch_is_
         time.sleep(0.05)
     checker.send_signal(number)
     out, err = checker.communicate(timeout=60)
-    assert checker.returncode == code and "Traceback" not in err + out
-    if number != signal.SIGKILL:
-        assert err == f"{'interrupted' if code == 130 else 'terminated'}: your file's run was stopped and its scratch" \
-                      " folder removed\n"
-    for _ in range(600):  # the child's sentinel, which saw the checker's end of its pipe close, ends them at once
-        if not left_behind(scratch) and not os.listdir(scratch):
-            break
-        time.sleep(0.05)
-    assert left_behind(scratch) == [] and os.listdir(scratch) == []
-
-
-def test_a_signal_during_the_checkers_own_imports_is_one_line():
-    """The moment guard() catches SIGTERM (Python itself never does), numpy and the engine are still loading."""
-    checker = subprocess.Popen([sys.executable, "-m", "exercises.check_ex2", "--help"], cwd=REPO,
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    caught = 0
-    while not caught >> (signal.SIGTERM - 1) & 1 and checker.poll() is None:
-        with open(f"/proc/{checker.pid}/status") as status:
-            caught = int(next(line for line in status if line.startswith("SigCgt:")).split()[1], 16)
-    checker.send_signal(signal.SIGTERM)
-    out, err = checker.communicate(timeout=30)
-    assert (checker.returncode, out, err) == (143, "", "terminated: no file was written\n")
+    said = {130: "interrupted", 143: "terminated"}.get(code)  # SIGKILL: nothing, and no traceback
+    assert err == (f"{said}: your file's run was stopped and its scratch folder removed\n" if said else "")
+    assert gone(scratch), left_behind(scratch)  # the child's sentinel saw the checker's end of its pipe close
 
 
 def test_a_normal_end_reaps_what_the_file_started_gives_the_handlers_back_and_is_isolated(tmp_path, monkeypatch):
     """A process and a thread of the file's own outlive its last answer: the checker neither waits nor leaves
-    them. The file's folder comes after the standard library: a scratch threading.py there is named, not used."""
+    them. The file's folder comes after the standard library: a scratch threading.py there is not imported."""
     (tmp_path / "threading.py").write_text("raise RuntimeError('the scratch threading.py was imported')\n")
     (tmp_path / "mine_helper.py").write_text("def twice(x):\n    return 2 * x\n")
     lingering = "import threading, time\nthreading.Thread(target=time.sleep, args=(60,)).start()\n"
@@ -85,8 +73,7 @@ def test_a_normal_end_reaps_what_the_file_started_gives_the_handlers_back_and_is
     before = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
     run = collect(tmp_path, SLEEPER + lingering + "from mine_helper import twice\n\n\ndef f(x):\n    return twice(x)\n",
                   tasks=[{"x": 2}])
-    assert run.imported is None and run.results == {0: {"got": 4}} and left_behind(tmp_path / "tmp") == []
-    assert run.clashes == [("threading.py", "Python's standard module threading")]
+    assert run.imported is None and run.results == {0: {"got": 4}} and gone(tmp_path / "tmp")
     assert {number: signal.getsignal(number) for number in before} == before
 
 
@@ -101,24 +88,19 @@ def test_every_run_gets_the_same_hash_seed(tmp_path, monkeypatch):
 
 def test_prints_are_kept_bounded_and_cost_no_verdict(tmp_path):
     """A print in every call is counted, not formatted, once the first few kB are kept; a flood without newlines
-    is kept bounded and still stopped by the time limit."""
+    while the file is imported is kept bounded, counted, and still stopped by the time limit."""
     run = collect(tmp_path, "def f(x):\n    print('debug', x, 'x' * 100)\n    return x\n",
                   tasks=[{"x": i} for i in range(100)])
     assert run.results == {i: {"got": i} for i in range(100)} and run.prints > 0
     assert run.printed.startswith(b"debug 0 xxx") and len(run.printed) <= student_code.KEPT_OUTPUT_BYTES
     run = collect(tmp_path, "import sys\nwhile True:\n    sys.stdout.write('x' * 65536)\n", time_limit=2)
-    assert run.imported == {"stopped": "time limit"}
     assert len(run.printed) == student_code.KEPT_OUTPUT_BYTES and run.printed_bytes > 10 * len(run.printed)
+    assert student_code.failure_sentence(run, [0], str, 2).startswith("importing your file did not finish within 2 s")
 
 
-def test_a_crash_is_named_by_its_signal_and_a_forged_answer_is_a_sentence(tmp_path):
+def test_a_crash_is_named_by_its_signal(tmp_path):
     run = collect(tmp_path, "import os, signal\n\n\ndef f(x):\n    os.kill(os.getpid(), signal.SIGSEGV)\n")
-    assert run.stopped == {0: "crashed (segmentation fault, signal 11)"}
-    assert "your code crashed (segmentation fault, signal 11) in f" in \
-        student_code.failure_sentence(run, [0], lambda i: "in f", 20)
-    run = collect(tmp_path, "import os, sys\nos.write(int(sys.argv[1]), b'{not json\\n')\nos._exit(0)\n")
-    assert student_code.failure_sentence(run, [0], str, 20).startswith("your file's run did not finish: what it sent"
-                                                                       " back could not be read")
+    assert run.stopped == {0: "segmentation fault, signal 11"}
 
 
 def test_the_import_and_the_tasks_each_get_the_time_limit(tmp_path):
@@ -126,18 +108,3 @@ def test_the_import_and_the_tasks_each_get_the_time_limit(tmp_path):
     run = collect(tmp_path, "import time\ntime.sleep(1.5)\n\n\ndef f(x):\n    time.sleep(1.5)\n    return x\n",
                   tasks=[{"x": 3}], time_limit=2)
     assert run.imported is None and run.results == {0: {"got": 3}} and run.stopped == {}
-
-
-def test_what_is_not_a_regular_source_file_gets_a_sentence(tmp_path):
-    os.mkfifo(tmp_path / "pipe.py")
-    with open(tmp_path / "big.py", "wb") as big:
-        big.truncate(200_000_000)  # sparse: 200 MB on paper, nothing on disk
-    assert student_code.source_problem(tmp_path / "big.py") == (2, f"{tmp_path / 'big.py'} is 200 MB; a file of a"
-                                                                  " few functions is a few kB. Is it the right file?")
-    assert "is not a regular file" in student_code.source_problem(student_code.Path("/dev/zero"))[1]
-    result = subprocess.run([sys.executable, "-m", "exercises.check_ex2", str(tmp_path / "pipe.py")], cwd=REPO,
-                            capture_output=True, text=True, timeout=60)
-    assert result.returncode == 2 and result.stdout == ""
-    assert result.stderr == f"python -m exercises.check_ex2: error: {tmp_path / 'pipe.py'} is not a regular file (it" \
-                            " is a pipe or a device); give the .py file itself\n"
-

@@ -52,9 +52,9 @@ def board(found) -> int:
     book, titles = journal.load(), exercise.titles(EXERCISES)
     rows = [(number, titles.get(number, module), *journal.status(book, number, module, kind))
             for number, module, kind in found]
-    print(f"{sum(done for *_, done, _ in rows)} of {len(rows)} exercises done.")
+    print(f"{sum(done for *_, done in rows)} of {len(rows)} exercises done.")
     width = max(len(title) for _, title, *_ in rows)
-    for number, title, said, _, _ in rows:
+    for number, title, said, _ in rows:
         print(f"{number:>3}. {title:<{width}}  {said}")
     off = journal.where() is None and f"recording is off ({journal.SETTING}=off): nothing is kept"
     for note in filter(None, [off, *book.notes()]):
@@ -99,21 +99,19 @@ def reset(parser, found, number: int) -> int:
 
 
 def handin(found, out: Path) -> int:
-    """One zip of the journal and the code exercises' files as they are; a file over MAX_BYTES is left out, said."""
+    """One zip of the journal and the code exercises' files as they are (the grader refuses one over MAX_BYTES)."""
     book, files = journal.load(), {f"exercises/{m}.py": EXERCISES / f"{m}.py" for _, m, k in found if k == "code"}
     members = {name: data for name, path in {"exercises/journal.jsonl": journal.where(), **files}.items()
                if path and (data := journal.own_file(path)) is not None}
-    big, archive = [name for name, data in members.items() if len(data) > journal.MAX_BYTES], io.BytesIO()
-    inside = [name for name in members if name not in big]
+    archive = io.BytesIO()
     with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as bundle:
-        for name in inside:
-            bundle.writestr(zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0)), members[name])
+        for name, data in members.items():
+            bundle.writestr(zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0)), data)
     write_atomic(out, archive.getvalue())
-    print(f"{shown(out, 100)}: {', '.join(inside) or 'nothing'} ({len(book.records)} journal lines). Hand this file"
+    print(f"{shown(out, 100)}: {', '.join(members) or 'nothing'} ({len(book.records)} journal lines). Hand this file"
           " in; nothing was sent anywhere.")
     off = journal.where() is None and f"recording is off ({journal.SETTING}=off): there is no journal"
     empty = not off and not book.records and not book.trouble and "there is no journal yet: run an exercise first"
-    for note in filter(None, [off, empty, big and f"{', '.join(big)} left out: over {journal.MAX_BYTES // 10**6} MB",
-                              *book.notes()]):
+    for note in filter(None, [off, empty, *book.notes()]):
         print(f"Note: {shown(note, 300)}.")
     return 0

@@ -5,14 +5,12 @@ import platform
 import sys
 import time
 
-TIERS = {"cpu": "free"}  # each chapter's free tier runs on any laptop CPU; a GPU tier would be named here
-
 
 def banner(chapter: str, device: str = "cpu", stream=None) -> str:
-    """Print and return one line: chapter id, tier and device, Python and numpy versions."""
+    """Print and return one line: chapter, tier (the free tier runs on any laptop's CPU), Python and numpy versions."""
     import numpy as np  # here, not at the top: importing curriculum.common stays light
 
-    line = f"[{chapter}] tier: {TIERS[device]} ({device}) | python {platform.python_version()} | numpy {np.__version__}"
+    line = f"[{chapter}] tier: free ({device}) | python {platform.python_version()} | numpy {np.__version__}"
     print(line, file=stream or sys.stdout, flush=True)
     return line
 

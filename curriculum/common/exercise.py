@@ -43,14 +43,6 @@ def command(module: str, kind: str) -> str:
     return f"python -m exercises.{module}"
 
 
-def next_line(folder, number: int) -> str:
-    """'Next: exercise 3, "Halve the timestep": python -m exercises.ex3_halve_dt'; after the last, where to read on."""
-    later = [(n, module, kind) for n, module, kind in exercises(folder) if n > number]
-    if not later:
-        return f"Next: that was the last one. python -m exercises shows what is left; then read {READ_ON}."
-    return announce(folder, *later[0])
-
-
 def announce(folder, n: int, module: str, kind: str) -> str:
     """The Next line that sends a student to exercise `n`, the same from a run and from the board."""
     return f'Next: {READ_FIRST.get(n, "")}exercise {n}, "{titles(folder).get(n, module)}": {command(module, kind)}'

@@ -8,7 +8,6 @@ import datetime
 import errno
 import hashlib
 import json
-import math
 import os
 import secrets
 import stat
@@ -24,15 +23,16 @@ fcntl = None if os.name == "nt" else __import__("fcntl")  # Windows: no flock; a
 DEFAULT, COURSE, SETTING = EXERCISES / "journal.jsonl", EXERCISES.parent, "COURSE_JOURNAL"
 VERSION = 1  # the format: a journal of another version is named, never read as this one
 MAX_BYTES = 4_000_000  # a whole course is a few hundred lines; past this a file is not a journal
-MAX_LINE, MAX_TEXT, MAX_ITEMS = 20_000, 2_000, 20
+MAX_LINE = 20_000  # bytes: a record's longest line, which bounds its every field too
 NOFOLLOW = outputs.NOFOLLOW
 NOTE = "Written by the exercises, one line per prediction or check. Do not edit: an edit breaks the chain."
 ANSWER, PARTS = "a name, a number, a list of names or a value per name", "{function: solved}"
-FIELDS = {"journal": {"version": int, "note": str, "checkout": str}, "asked": {"ex": int, "question": str},
+FIELDS = {"journal": {"version": int, "note": str, "checkout": str},
           "predict": {"ex": int, "question": str, "answer": ANSWER, "typed": str, "because": str, "attempt": int},
           "replay": {"ex": int, "question": str, "prediction": str},
           "marks": {"ex": int, "prediction": str, "right": int, "items": int},
-          "check": {"ex": int, "solved": bool, "parts": PARTS, "sha256": str, "own": bool}, "reset": {"ex": int}}
+          "check": {"ex": int, "solved": bool, "parts": PARTS, "sha256": str, "own": bool}, "reset": {"ex": int},
+          "asked": {"ex": int, "question": str}}  # a bare question, as earlier versions recorded it
 
 
 def valid(record) -> bool:
@@ -44,18 +44,15 @@ def valid(record) -> bool:
 
 
 def _fits(value, kind) -> bool:
-    if kind in (str, int, bool):
-        return type(value) is kind and (len(value) <= MAX_TEXT and value == value.encode(errors="replace").decode()
-                                        if kind is str else kind is bool or abs(value) < 10**9)
-    if isinstance(value, (list, dict)) and len(value) > MAX_ITEMS:
-        return False
+    if kind in (str, int, bool):  # a str with no lone surrogate (nothing could print or write it)
+        return type(value) is kind and (kind is not str or value == value.encode(errors="replace").decode())
     if kind == PARTS:
-        return isinstance(value, dict) and all(_fits(k, str) and type(v) is bool for k, v in value.items())
-    if isinstance(value, list):
+        return type(value) is dict and all(_fits(k, str) and type(v) is bool for k, v in value.items())
+    if type(value) is list:
         return all(_fits(v, str) for v in value)
-    if isinstance(value, dict):
-        return all(_fits(k, str) and _fits(v, ANSWER) and not isinstance(v, (list, dict)) for k, v in value.items())
-    return _fits(value, str) or _fits(value, int) or type(value) is float and math.isfinite(value)
+    if type(value) is dict:
+        return all(_fits(k, str) and (_fits(v, str) or _fits(v, int)) for k, v in value.items())
+    return _fits(value, str) or _fits(value, int)
 
 
 @dataclass
@@ -124,17 +121,14 @@ def when(stamp) -> str:  # 'Tue 25 Nov 10:02'
 
 @contextlib.contextmanager
 def _opened(path: Path, flags: int):
-    """(fd, contents) of the journal, flocked (shared to read): never through a link, nor another user's file in a
-    sticky folder, nor a file that is not regular (a FIFO, a device, a folder) or is over MAX_BYTES."""
-    if outputs.planted(path):
-        raise OSError(errno.EPERM, "another user's file in a sticky folder (like /tmp), never used")
-    fd = os.open(path, flags | os.O_NONBLOCK | NOFOLLOW, 0o644)
+    """(fd, contents) of the journal, flocked (shared to read), never through a link, never past MAX_BYTES, never
+    another user's file in a sticky folder (like /tmp: root is not stopped by the kernel's protected_regular)."""
+    if problem := outputs.planted(path):
+        raise OSError(errno.EPERM, problem)
+    fd = os.open(path, flags | os.O_NONBLOCK | NOFOLLOW, 0o644)  # O_NONBLOCK: a FIFO fails in pread, never hangs
     try:
         fcntl and fcntl.flock(fd, fcntl.LOCK_SH if flags == os.O_RDONLY else fcntl.LOCK_EX)  # released by close
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode):
-            raise OSError(errno.EINVAL, "it is not a regular file")
-        if info.st_size > MAX_BYTES:
+        if os.fstat(fd).st_size > MAX_BYTES:
             raise OSError(errno.EFBIG, f"it is over {MAX_BYTES // 1_000_000} MB, more than a journal ever holds")
         yield fd, os.pread(fd, MAX_BYTES + 1, 0)
     finally:
@@ -174,8 +168,7 @@ def append(make, kept: str | None = None) -> dict | None:
                 lines.append(json.dumps(item) + "\n")
             out = (("\n" if data and not data.endswith(b"\n") else "") + "".join(lines)).encode()  # a cut line apart
             with outputs.signals_held():  # Ctrl-C waits for the whole record, then is said
-                while out:  # one write() in practice; the lock keeps any remainder next to it
-                    out = out[os.write(fd, out):]
+                os.write(fd, out)  # one write() under the lock; short only on a full disk: a cut line, skipped
                 os.fsync(fd)
                 outputs.KEPT.extend([kept] if kept else [])
             return record
@@ -203,26 +196,28 @@ def checked(default: Path, path: Path, parts: dict) -> None:
 def next_line(number: int | None, book=None, found=None) -> str:
     """The board's Next line, which every run ends with: the first exercise not done (no journal: after `number`)."""
     book, found = book or load(), found or exercise.exercises(EXERCISES)
-    if number is not None and not book.records:  # recording off or failing: the board knows nothing
-        return exercise.next_line(EXERCISES, number)
-    waiting = [(n, module, kind) for n, module, kind in found if not status(book, n, module, kind)[1]]
-    return exercise.announce(EXERCISES, *waiting[0]) if waiting else f"Next: read {exercise.READ_ON}."
+    blind = number is not None and not book.records  # recording off or failing: the board knows nothing
+    waiting = [(n, module, kind) for n, module, kind in found
+               if (n > number if blind else not status(book, n, module, kind)[1])]
+    if waiting:
+        return exercise.announce(EXERCISES, *waiting[0])
+    last = "that was the last one. python -m exercises shows what is left; then read" if blind else "read"
+    return f"Next: {last} {exercise.READ_ON}."
 
 
-def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
-    """(the board's words, done, the next command): the first prediction (the grade's), or the last check."""
-    since, command = book.of(number), exercise.command(module, kind)
+def status(book, number: int, module: str, kind: str) -> tuple[str, bool]:
+    """(the board's words, done): the first prediction (the grade's), or the last check."""
+    since = book.of(number)
     if kind == "code":
         checks = [r for r in since if r["kind"] == "check" and r["own"]]  # not a scratch file's
         if not checks:
-            return "not tried", False, command
+            return "not tried", False
         last = checks[-1]
         if last["solved"]:
             same = last["sha256"] == hashlib.sha256(own_file(EXERCISES / f"{module}.py") or b"").hexdigest()
-            return f"solved {when(last['t'])}" + ("" if same else ", but the file has changed since"), same, \
-                command
+            return f"solved {when(last['t'])}" + ("" if same else ", but the file has changed since"), same
         parts = ", ".join(f"{cli.shown(name)} {'solved' if ok else 'not yet'}" for name, ok in last["parts"].items())
-        return f"checked {when(last['t'])}: {parts or 'it does not run yet'}", False, command
+        return f"checked {when(last['t'])}: {parts or 'it does not run yet'}", False
     every = book.of(number, everything=True)
     predictions = [r for r in every if r["kind"] == "predict"]
     if any(r["kind"] == "predict" for r in since):  # done since the last reset; the grade counts the first ever
@@ -233,11 +228,8 @@ def status(book, number: int, module: str, kind: str) -> tuple[str, bool, str]:
         return (f"predicted {when(first['t'])}{question}"
                 + (f": {marks['right']} of {marks['items']} right" if marks else ": not measured yet")
                 + (f", {tries} attempts" if tries > 1 else "")
-                + ("; the grade counts this first one, from before your reset" if first not in since else ""),
-                True, "")
-    if any(r["kind"] == "asked" for r in since):
-        return "asked", False, f"python -m exercises.{module} --predict ANSWER"
-    return "not tried", False, command
+                + ("; the grade counts this first one, from before your reset" if first not in since else ""), True)
+    return "not tried", False
 
 
 def own_file(path: Path) -> bytes | None:

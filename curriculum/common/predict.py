@@ -5,25 +5,16 @@
     verdict(answer, f"it is {answer}")   # "Right: it is a." / "Not quite: you said b, but it is a."
     explain("The lesson, naming the one figure that matters.", more=lambda: ["- the full story ...", ...])
 
-- `ask` adds --predict, --because and --more. Run bare, it prints the question and how to commit (no figure)
-  and exits 0; an answer that does not parse gets one line listing the accepted forms, and exit 2. It records
-  the prediction in the journal (curriculum.common.journal) before it returns: the first prediction of a
-  question counts, a different one later is the next attempt, the same one again a replay.
-- The answers are read as people type them, in time linear in the text, quoting at most 40 characters of it:
-  `OneOf` (one name, any case, '-' or ' ' for '_', aliases such as 'backward Euler'), `Number` (10000,
-  10,000, 10_000, 10 000, 1e4, 10k; 1.000 reads two ways and says so), `PerName` ('euler=8, rk4=1': any
-  order and spacing) and `SomeOf` ('rk4, implicit', 'none', 'all'). Each has `.forms`, what a refusal prints.
-- `verdict` prints the grade and records how many items were right; `explain(lesson, more=function)` prints
-  the lesson (at most 120 words: tests/test_docs.py counts) and says that --more tells the rest; under
-  --more, `function()` prints any further table and returns the full explanation's lines. A run that measured
-  ends with `curriculum.common.exercise.next_line`. Keep measured answers out of the docstring, --help and
-  the question: tests/test_docs.py reads them for leaks.
+`ask` adds --predict, --because and --more; it records the prediction in the journal before it returns. The
+answers (`OneOf`, `Number`, `PerName`, `SomeOf`) are read as people type them, in time linear in the text; one
+that does not parse gets one line listing the accepted forms (`.forms`). The lesson is at most 120 words
+(tests/test_docs.py counts). Keep measured answers out of the docstring, --help and the question:
+tests/test_docs.py reads them for leaks.
 """
 
 import argparse
 import atexit
 import contextlib
-import decimal
 import re
 import sys
 import textwrap
@@ -42,12 +33,8 @@ ALIASES = {"expliciteuler": "euler", "forwardeuler": "euler",
            "band": "stays", "inaband": "stays", "staysinaband": "stays", "stayinaband": "stays", "bounded": "stays",
            "growswiththerun": "grows", "growwiththerun": "grows", "unbounded": "grows"}
 LONGEST_NAME = 4  # words: "classical runge kutta 4"
-SEPARATORS = ",;"  # between the items of a list; within an item, spaces
 SPELLED = {2: "two", 3: "three", 4: "four", 5: "five"}  # 'all four'
-
-
-class TwoReadings(ValueError):
-    """A number that means different things on either side of the Channel, such as 1.000."""
+NUMBER = re.compile(r"(\d{1,9})(?:\.0)?(?:e(\d{1,2}))?(k?)")  # 10000, 10000.0, 1e4, 10k; not 1.000 (two readings)
 
 
 class OneOf:
@@ -58,34 +45,33 @@ class OneOf:
         spelling = "; '-' or a space may stand for '_'" if any("_" in name for name in self.names) else ""
         self.forms = f"one of {', '.join(self.names)} (any case{spelling})"
 
-    def find(self, text: str) -> str | None:  # the name `text` means, or None
+    def find(self, text: str):  # the name `text` means, or None
         key = ALIASES.get(_name_key(text), _name_key(text))
         return next((name for name in self.names if _name_key(name) == key), None)
 
-    def parse(self, text: str) -> str:
-        name = self.find(text)
-        if name is None:
+    def parse(self, text: str):
+        found = self.find(text)
+        if found is None:
             raise ValueError(f"{_shown(text)} is not {self.forms}")
-        return name
+        return found
 
 
-class Number:
-    """One number from a fixed list of choices: 10000, 10,000, 10_000, 10 000, 1e4 and 10k are the same."""
+class Number(OneOf):
+    """One number from a fixed list: 10000, 10,000, 10_000, 10 000, 1e4 and 10k are the same."""
 
     def __init__(self, choices, unit: str = ""):
-        self.choices, self.unit = list(choices), unit
+        self.names, self.unit = list(choices), unit
         with_unit = f", with or without '{unit}s'" if unit else ""
-        self.forms = (f"one of {', '.join(f'{c:,}' for c in self.choices)}"
+        self.forms = (f"one of {', '.join(f'{c:,}' for c in self.names)}"
                       f" (written 10000, 10,000, 10_000, 1e4 or 10k{with_unit})")
 
-    def parse(self, text: str) -> int:
-        words = text.split()
-        if self.unit and len(words) > 1 and words[-1].lower() in (self.unit, f"{self.unit}s"):
+    def find(self, text: str) -> int | None:
+        words = text.lower().split()
+        if self.unit and len(words) > 1 and words[-1] in (self.unit, f"{self.unit}s"):
             words = words[:-1]  # '1000 orbits' is 1000 orbits
-        value = _number(" ".join(words))  # TwoReadings says why
-        if value not in self.choices:
-            raise ValueError(f"{_shown(text)} is not {self.forms}")
-        return int(value)
+        found = NUMBER.fullmatch("".join(words).replace(",", "").replace("_", ""))
+        value = found and int(found[1]) * 10 ** int(found[2] or 0) * (1000 if found[3] else 1)
+        return value if value in self.names else None
 
 
 class PerName:
@@ -94,45 +80,50 @@ class PerName:
 
     def __init__(self, names, values):
         self.names, self.values = OneOf(names), list(values)
-        self.words = OneOf(self.values) if all(isinstance(v, str) for v in self.values) else None
-        what = "word" if self.words else "value"
-        self.choices = ", ".join(str(v) if self.words else f"{v:g}" for v in self.values)
+        self.value = OneOf(self.values) if all(isinstance(v, str) for v in self.values) else Number(self.values)
+        what = "value" if isinstance(self.value, Number) else "word"
+        self.choices = ", ".join(map(str, self.values))
         like = ", ".join(f"{name}={letter}" for name, letter in zip(self.names.names, "ABCDEFGH", strict=False))
         self.forms = (f"name={what} for each of {', '.join(self.names.names)}, separated by commas,"
                       f" each {what} one of {self.choices} (like {like}, with your {what} for each letter)")
 
     def parse(self, text: str) -> dict:
-        prediction = {}
-        for name_text, value_text in _pairs(text, self.forms):
-            item = _shown(f"{name_text}={value_text}")
-            name = self.names.find(name_text)
-            if name is None:
-                raise ValueError(f"in {item}, {_shown(name_text)} is not one of {', '.join(self.names.names)}")
-            value = self.value(item, value_text)
-            if name in prediction:
-                raise ValueError(f"{name} is given twice")
-            prediction[name] = value
+        """Split at each '=' or ':'; between two of them, a value, then (after a comma, semicolon or space) a name."""
+        pieces = re.split(r"[=:]", text)  # a character class, no repetition: linear in the text
+        if len(pieces) == 1:
+            raise ValueError(f"{_shown(text)} has no '=': expected {self.forms}" if text.strip(" ,;\t\n") else
+                             f"the answer is empty: expected {self.forms}")
+        prediction, name = {}, pieces[0]
+        for at, piece in enumerate(pieces[1:], 2):
+            name = name.strip(" ,;\t\n")
+            if "," in name or ";" in name:  # 'euler 8, rk4=1': an item with no '='
+                raise ValueError(f"{_shown(re.split('[,;]', name)[0])} has no '=': expected {self.forms}")
+            if at == len(pieces):  # the last value: all that is left
+                value, following = piece.strip(" ,;\t\n"), ""
+            else:  # the value ends at the first comma or semicolon, or else at the first space: 'grows, rk4'
+                value, following = re.split(r"[,;]", piece, maxsplit=1) if re.search(r"[,;]", piece) else \
+                    piece.strip().partition(" ")[::2]
+            value = value.strip()
+            item, key = _shown(f"{name}={value}"), self.names.find(name)
+            if key is None:
+                raise ValueError(f"in {item}, {_shown(name)} is not one of {', '.join(self.names.names)}")
+            if key in prediction:
+                raise ValueError(f"{key} is given twice")
+            prediction[key], name = self.read(item, value), following
         missing = [name for name in self.names.names if name not in prediction]
         if missing:
             raise ValueError(f"no value for {', '.join(missing)}: expected {self.forms}")
         return {name: prediction[name] for name in self.names.names}
 
-    def value(self, item: str, text: str):
-        text = text.strip()
+    def read(self, item: str, text: str):
         if not text:
             raise ValueError(f"in {item}, nothing after the '=': put one of {self.choices} there")
-        if text in ("?", "...") or (len(text) == 1 and text in "ABCDEFGH"):  # the template, typed as shown
-            raise ValueError(f"in {item}, put your value where the {text} is: one of {self.choices}")
-        if self.words:
-            value = self.words.find(text)
-        else:
-            try:
-                value = _number(text)
-            except TwoReadings as problem:
-                raise ValueError(f"in {item}, {problem}") from None
-        if value not in self.values:
+        if text == "?":  # the README's template, typed as shown
+            raise ValueError(f"in {item}, put your value where the ? is: one of {self.choices}")
+        value = self.value.find(text)
+        if value is None:
             raise ValueError(f"in {item}, {_shown(text, quoted=False)} is not one of {self.choices}")
-        return value if self.words else int(value)
+        return value
 
 
 class SomeOf:
@@ -152,17 +143,14 @@ class SomeOf:
             raise ValueError(f"the answer is empty: answer with {self.forms}")
         chosen, at = [], 0
         while at < len(words):  # the longest run of words that is one name: "semi implicit euler" before "semi"
-            for length in range(min(LONGEST_NAME, len(words) - at), 0, -1):
-                name = self.names.find(" ".join(words[at:at + length]))
-                if name:
-                    chosen.append(name)
-                    at += length
-                    break
-            else:
+            length = next((n for n in range(min(LONGEST_NAME, len(words) - at), 0, -1)
+                           if self.names.find(" ".join(words[at:at + n]))), 0)
+            if not length:
                 word = words[at]
-                if word in ("none", "all"):
-                    raise ValueError(f"'{word}' goes alone: answer with {self.forms}")
-                raise ValueError(f"{_shown(word)} is not {self.kind} here: answer with {self.forms}")
+                raise ValueError(f"'{word}' goes alone: answer with {self.forms}" if word in ("none", "all") else
+                                 f"{_shown(word)} is not {self.kind} here: answer with {self.forms}")
+            chosen.append(self.names.find(" ".join(words[at:at + length])))
+            at += length
         return frozenset(chosen)
 
 
@@ -183,27 +171,25 @@ def ask(parser: argparse.ArgumentParser, question: str, answers, argv=None, vari
     args = parser.parse_args(argv)
     parser.parsed = args
     _asked.update(question=question, answers=answers, more=args.more)  # what was asked, for explain() and the tests
-    found = EXERCISE_FILE.fullmatch(f"{parser.prog.rpartition('.')[2]}.py")
-    number = int(found.group(1)) if found else None  # None: not one of the course's exercises, nothing recorded
+    number = int(EXERCISE_FILE.fullmatch(f"{parser.prog.rpartition('.')[2]}.py")[1])  # exercises.ex3_halve_dt: 3
     value = getattr(args, variant) if variant else None
     asked = f"{variant}={value}" if variant and value != parser.get_default(variant) else ""  # "": the default
     if args.predict is None:
         for flag in ("because", "more"):
             if getattr(args, flag):
                 parser.exit(2, f"{parser.prog}: error: --{flag} goes with --predict: commit to a prediction too\n")
-        run = how_it_was_run(parser.prog) + (f" --{variant} {value}" if asked else "")
-        show_question(run, question, answers, number, asked)
+        show_question(how_it_was_run(parser.prog) + (f" --{variant} {value}" if asked else ""), question, answers,
+                      number, asked)
         sys.exit(0)
     try:
         prediction = answers.parse(" ".join(args.predict))
     except ValueError as problem:
         parser.exit(2, f"{parser.prog}: error: --predict: {problem}\n")
-    problem = check(args) if check else None
-    if problem:
+    if check and (problem := check(args)):
         parser.exit(2, f"{parser.prog}: error: {problem}\n")
     _asked.update(prediction=prediction, said=said(prediction, answers), number=number,
                   **record(number, asked, prediction, args))
-    if interrupts.active() and number is not None:  # the exercise being run, not a test's main(): its last line
+    if interrupts.active():  # the exercise being run, not a test's main(): its last line
         atexit.register(_say_next, number)
     return prediction
 
@@ -216,21 +202,23 @@ def asked() -> dict:
     return dict(_asked)
 
 
+def tries(book, number: int, asked: str) -> list:
+    """The predictions of exercise `number`'s question `asked` since its last reset, the first first."""
+    return [r for r in book.of(number) if r["kind"] == "predict" and r["question"] == asked]
+
+
 def show_question(run: str, question: str, answers, number: int, asked: str) -> None:
     """A bare run: the question, then how to commit; or, once committed, what and when (no figure either way)."""
     print(question)
-    tried = [r for r in journal.load().of(number) if r.get("kind") == "predict" and r.get("question") == asked]
+    tried = tries(journal.load(), number, asked)
     if not tried:
-        if number is not None:  # once: the board says "asked" from here on
-            journal.append(lambda book: None if any(r.get("question") == asked for r in book.of(number)) else
-                           {"kind": "asked", "ex": number, "question": asked})
         print(f"Answer with {answers.forms}.")
         print(f"\nCommit to a prediction first, then run:  {run} --predict ANSWER [--because \"your reason\"]")
         return
     first = tried[0]
     attempts = f" ({len(tried)} attempts: the first counts)" if len(tried) > 1 else ""
-    reason = f", because {first['because']}" if first.get("because") else ""
-    print(f"You committed {first.get('typed')} on {journal.when(first.get('t'))}{reason}{attempts}.")
+    reason = f", because {first['because']}" if first["because"] else ""
+    print(f"You committed {first['typed']} on {journal.when(first['t'])}{reason}{attempts}.")
     print(f"\nTo see the measurement again:  {run} --predict ANSWER (the same answer is a replay, not an attempt)")
 
 
@@ -243,34 +231,31 @@ def said(prediction, answers) -> str:
     return f"{prediction:,}" if isinstance(prediction, int) else str(prediction)
 
 
-def record(number: int | None, asked: str, prediction, args) -> dict:
-    """The prediction in the journal before any figure (a new answer the next attempt, the same one a replay):
-    {prediction id, note for verdict()}."""
-    answer = sorted(prediction) if isinstance(prediction, frozenset) else prediction
-    found = {}
+def record(number: int, asked: str, prediction, args) -> dict:
+    """The prediction in the journal before any figure, or a replay of the same answer: {id, note for verdict()}."""
+    answer, tried = sorted(prediction) if isinstance(prediction, frozenset) else prediction, []
 
     def make(book):
-        tried = [r for r in book.of(number) if r.get("kind") == "predict" and r.get("question") == asked]
-        same = next((r for r in tried if r.get("answer") == answer), None)
-        found.update(first=tried[0] if tried else None, same=same)
+        tried.extend(tries(book, number, asked))
+        same = next((r for r in tried if r["answer"] == answer), None)
         if same:
-            return {"kind": "replay", "ex": number, "question": asked, "prediction": same.get("chain")}
+            return {"kind": "replay", "ex": number, "question": asked, "prediction": same["chain"]}
         return {"kind": "predict", "ex": number, "question": asked, "answer": answer,
                 "typed": " ".join(args.predict)[:200], "because": " ".join(args.because or [])[:1000],
                 "attempt": len(tried) + 1}
 
     kept = f"your prediction is recorded in {journal.shown(journal.where() or Path())}"
-    written = journal.append(make, kept) if number is not None else None
+    written = journal.append(make, kept)
     if written is None:
-        if number is not None and journal.where() is None and sys.stderr.isatty():  # to the student, as progress is
+        if journal.where() is None and sys.stderr.isatty():  # to the student, as progress is
             print(f"note: recording is off ({journal.SETTING}=off): this prediction is not recorded", file=sys.stderr)
         return {"id": None, "note": ""}
-    same, first = found["same"], found["first"]
-    if same:
-        return {"id": same.get("chain"), "note": f"The same answer as your attempt {same.get('attempt')}"
-                f" ({journal.when(same.get('t'))}): a replay, not a new attempt."}
-    note = f"This was attempt {written['attempt']}: your first prediction, {journal.when(first.get('t'))}, is the" \
-           " one that counts." if first else ""
+    if written["kind"] == "replay":
+        same = next(r for r in tried if r["chain"] == written["prediction"])
+        return {"id": same["chain"], "note": f"The same answer as your attempt {same['attempt']}"
+                f" ({journal.when(same['t'])}): a replay, not a new attempt."}
+    note = f"This was attempt {written['attempt']}: your first prediction, {journal.when(tried[0]['t'])}, is the" \
+           " one that counts." if tried else ""
     return {"id": written["chain"], "note": note}
 
 
@@ -282,9 +267,8 @@ def _say_next(number: int) -> None:
 
 def how_it_was_run(module: str) -> str:
     """`python -m exercises.ex1_band`, or `python ex1_band.py` if the student ran the file itself."""
-    script = Path(sys.argv[0]) if sys.argv and sys.argv[0] else None
-    main_spec = getattr(sys.modules.get("__main__"), "__spec__", None)
-    if main_spec is None and script is not None and script.stem == module.rpartition(".")[2]:
+    main = sys.modules.get("__main__")
+    if getattr(main, "__spec__", None) is None and Path(sys.argv[0]).stem == module.rpartition(".")[2]:
         return f"python {sys.argv[0]}"
     return f"python -m {module}"
 
@@ -297,7 +281,7 @@ def verdict(truth, answer: str | None = None) -> None:
     print(f"Right: {answer}." if prediction == truth else f"Not quite: you said {_asked['said']}, but {answer}.")
     items = [prediction[name] == truth[name] for name in truth] if isinstance(truth, dict) else [prediction == truth]
     if _asked["id"]:
-        journal.append(lambda book: None if any(r.get("kind") == "marks" and r.get("prediction") == _asked["id"]
+        journal.append(lambda book: None if any(r["kind"] == "marks" and r["prediction"] == _asked["id"]
                                                 for r in book.records) else
                        {"kind": "marks", "ex": _asked["number"], "prediction": _asked["id"],
                         "right": sum(items), "items": len(items)})
@@ -313,15 +297,12 @@ def explain(*lines: str, more=None, width: int = 100) -> None:
     under --more, more()'s lines follow (measured only then); without, MORE says they exist."""
     for line in lines:
         indent = "  " if line.startswith("- ") else ""
-        code = line.startswith("    ")
         wrapped = textwrap.fill(line, width=width, subsequent_indent=indent, break_on_hyphens=False)  # semi-implicit
-        print(line if code else wrapped if line else "")
-    if more is None:
-        return
-    if _asked.get("more"):
+        print(line if line.startswith("    ") else wrapped)
+    if more is not None and _asked.get("more"):
         print()
         explain(*more(), width=width)
-    else:
+    elif more is not None:
         print(MORE)
 
 
@@ -335,50 +316,3 @@ def _shown(text: str, limit: int = 40, quoted: bool = True) -> str:
     text = " ".join(text.split())
     text = text if len(text) <= limit else f"{text[:limit - 3]}..."
     return repr(text) if quoted else shown(text, None)  # repr escapes; unquoted, shown() does
-
-
-def _pairs(text: str, forms: str):
-    """(name text, value text) for each item of 'euler=8, semi implicit: 4 rk4=1', one at a time: split at '='
-    or ':', between two of them a value, then (after a comma, a semicolon or a space) the next name."""
-    pieces = re.split(r"[=:]", text)  # a character class, no repetition: linear in the text
-    if len(pieces) == 1:
-        if not text.strip(" ,;\t\n"):
-            raise ValueError(f"the answer is empty: expected {forms}")
-        raise ValueError(f"{_shown(text)} has no '=': expected {forms}")
-    name = pieces[0]
-    for at in range(1, len(pieces)):
-        value, next_name = (pieces[at], "") if at == len(pieces) - 1 else _value_then_name(pieces[at])
-        name = name.strip(" ,;\t\n")
-        if not name:
-            raise ValueError(f"{_shown('=' + value)} has no name before its '=': expected {forms}")
-        if SEPARATORS[0] in name or SEPARATORS[1] in name:  # 'euler 8, rk4=1': an item with no '='
-            raise ValueError(f"{_shown(re.split(r'[,;]', name)[0])} has no '=': expected {forms}")
-        value = value.strip(" ,;\t\n")
-        if any(separator in value for separator in SEPARATORS):
-            raise ValueError(f"in {_shown(name + '=' + value)}, one value per name: expected {forms}")
-        yield name, value
-        name = next_name
-
-
-def _value_then_name(text: str) -> tuple[str, str]:
-    """'8, semi implicit ' -> ('8', 'semi implicit'): the value ends at the first comma or semicolon, or else
-    at the first space after it."""
-    stripped = text.strip()
-    parts = re.split(r"[,;]", stripped, maxsplit=1)
-    return tuple(parts) if len(parts) == 2 else stripped.partition(" ")[::2]
-
-
-def _number(text: str):
-    """'10,000' / '10_000' / '10 000' / '1e4' / '10000.0' / '10k' -> 10000 (a Decimal), None if no whole number;
-    TwoReadings for '1.000' (a thousand in much of Europe, one here)."""
-    text = " ".join(text.split()).lower()
-    if re.fullmatch(r"\d{1,3}(?:\.\d{3})+", text):  # fixed-width groups: linear
-        raise TwoReadings(f"{_shown(text)} could be read two ways: write it without the dot")
-    if re.fullmatch(r"\d{1,3}(?: \d{3})+", text):  # 10 000
-        text = text.replace(" ", "")
-    scale = 1000 if text.endswith("k") and len(text) > 1 else 1  # 10k: ten thousand
-    try:
-        number = decimal.Decimal((text[:-1] if scale > 1 else text).replace("_", "").replace(",", "").strip())
-    except decimal.InvalidOperation:
-        return None
-    return number * scale if number.is_finite() and number == number.to_integral_value() else None

@@ -1,10 +1,9 @@
 """The course's recordings: one colour-blind-safe palette (Okabe and Ito's, kept apart by tests/test_palette.py) and
 one way every recording opens: the whole run, the cursor on the last step, side panels closed, everything framed.
-`recorded(app_id, fill)` gives the .rrd bytes; fill(stream) logs (log_series, ...) and returns an `opening(...)`.
-Rerun loads only inside the functions that need it."""
+`recorded(app_id, fill)` gives the .rrd bytes; fill(stream) logs and returns an `opening(...)`. Rerun loads late."""
 
 import math
-from typing import NamedTuple
+from collections import namedtuple
 
 import numpy as np
 
@@ -26,11 +25,7 @@ FEW_POINTS = 50  # a plot's line with this many values or fewer also marks each 
 END_ROOM = 0.04  # a plot's time axis runs this much past the last step, so the viewer labels that step too
 REACH = 2.0  # a spatial view frames the runs that stay within this many times the exact motion's size
 DRAW_LIMIT = 1e30  # Rerun stores float32 (to 3.4e38): headroom for the camera and labels; inf and NaN never drawn
-
-
-class Look(NamedTuple):
-    colour: tuple
-    label: str
+Look = namedtuple("Look", ["colour", "label"])  # how one name's lines and points look
 
 
 def looks(names) -> dict:
@@ -56,8 +51,7 @@ def recorded(application_id: str, fill, recording_id: str | None = None) -> byte
     """The .rrd bytes of a recording built in memory: fill(stream) logs into `stream` and returns the blueprint."""
     import rerun as rr
 
-    # signals wait until the bytes are drained: a stream dropped with data in its sink makes Rerun print a WARN line
-    with signals_held():
+    with signals_held():  # until the bytes are drained: a stream dropped with data in its sink prints a WARN line
         stream = rr.RecordingStream(application_id, recording_id=recording_id)
         in_memory = stream.memory_recording()
         try:
@@ -94,9 +88,8 @@ def log_series(stream, entity: str, steps, values, look: Look, width: float | No
 
 def layered_widths(names, widest: float = 7.0, thinnest: float = 1.5) -> dict:
     """{name: line width} so that lines on one another all show: the first drawn (in name order) is the widest."""
-    order = sorted(names)
-    step = (widest - thinnest) / (len(order) - 1) if len(order) > 1 else 0.0
-    return {name: widest - i * step if len(order) > 1 else thinnest for i, name in enumerate(order)}
+    step = (widest - thinnest) / max(len(names) - 1, 1)
+    return {name: widest - i * step if len(names) > 1 else thinnest for i, name in enumerate(sorted(names))}
 
 
 def padded(values, margin: float = 0.05):
@@ -147,7 +140,7 @@ def near(reference, paths, reach: float = REACH) -> list:
     return kept
 
 
-def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | None = 0.5, margin: float = 1.2):
+def from_above(origin: str, name: str, paths, tilt: float = 0.0, margin: float = 1.2):
     """A 3D view looking down on z = 0 at `paths`, +y up the screen (Rerun's 2D views point y down)."""
     import rerun.blueprint as rrb
 
@@ -157,7 +150,7 @@ def from_above(origin: str, name: str, paths, tilt: float = 0.0, grid: float | N
     up = [0.0, 0.0, 1.0] if tilt else [0.0, 1.0, 0.0]
     eye = rrb.EyeControls3D(kind="Orbital", look_target=centre.tolist(), eye_up=up,
                             position=(centre + [0.0, -tilt * distance, distance]).tolist())
-    lines = rrb.LineGrid3D(visible=grid is not None, spacing=grid or 1.0)
+    lines = rrb.LineGrid3D(visible=True, spacing=0.5)
     return rrb.Spatial3DView(origin=origin, name=name, eye_controls=eye, line_grid=lines)
 
 

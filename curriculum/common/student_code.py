@@ -1,14 +1,8 @@
-"""Run a student's file where it cannot decide the verdict: the harness of every chapter's code exercise.
+"""Run a student's file where it cannot decide the verdict: the harness of every chapter's code exercise
+(how it works and what it promises: docs/DEVELOPING.md, "Adding a checker mistake").
 
     problem = source_problem(path)  # (exit code, sentence) if it cannot be checked; runs none of it
-    run = collect(path, "exercises.support.ex2_cases", tasks, prog="python -m exercises.check_ex2")
-
-The file runs in a child Python in a session of its own (-s -P -B, PYTHONHASHSEED=0: one verdict per file), its
-folder on sys.path after the standard library; the child hands each task to collector.collect(module, task) and
-sends the answers as JSON lines on a pipe; its prints go to a sink that keeps the first 4 kB and counts the rest.
-However the checker ends (SIGKILL too), a sentinel the child forks sees the checker's end of that pipe close,
-kills the child's session and removes its scratch folder. A task that never ends costs its group; the others run
-again in a new child.
+    run = collect(path, "exercises.support.ex2_cases", tasks)  # in a child: collector.collect(module, task)
 """
 
 import argparse
@@ -26,7 +20,6 @@ import stat
 import subprocess
 import sys
 import tempfile
-import textwrap
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -37,7 +30,6 @@ from curriculum.common.cli import OneLineParser, shown
 from curriculum.common.outputs import one_line_failures
 
 REPO = Path(__file__).resolve().parents[2]
-MAX_SOURCE_BYTES = 1_000_000  # a file of a few functions is a few kB; past this it is not the student's file
 KEPT_OUTPUT_BYTES = 4096  # of what the student's code prints: enough to show, bounded whatever it does
 MAX_ANSWER_BYTES = 64_000_000  # what the child may send back; past this the run counts as malformed
 DONE = b'{"done": true}\n'  # the child's last answer
@@ -45,51 +37,32 @@ PHASES = (b'{"stage": "import"}', b'{"stage": "tasks"}')  # each starts the time
 CHILD = "import sys; sys.path.append(sys.argv[2]); from curriculum.common.student_code import _child; _child()"
 
 
-# --- before anything runs: a regular, readable, compiling Python file ---
+# --- before anything runs: a readable, compiling Python file ---
 
 
 def source_problem(path: Path) -> tuple[int, str] | None:
     """(exit code, sentence) if `path` cannot be checked: 2 if it is not a Python source file, 1 if it does not
     compile (the sentence then ends with the line and a caret). None if it can. Runs none of its code."""
-    where, name = shown(path, 100), shown(path.name, 60)
+    where = shown(path, 100)
     try:
-        info = path.stat()
-        if stat.S_ISDIR(info.st_mode):
+        if stat.S_ISDIR(path.stat().st_mode):
             return 2, f"{where} is a folder; give the .py file itself"
-        if not stat.S_ISREG(info.st_mode):  # a FIFO or a device: reading it could block forever
-            return 2, f"{where} is not a regular file (it is a pipe or a device); give the .py file itself"
-        if path.suffix.lower() == ".py" != path.suffix:
-            return 2, f"{name} ends in {shown(path.suffix)}: Python imports only files ending in .py: rename it"
         if path.suffix != ".py":
-            return 2, f"{name} is not a Python file: the checker imports it, so it must end in .py"
-        if info.st_size > MAX_SOURCE_BYTES:
-            return 2, f"{where} is {info.st_size / 1e6:,.0f} MB; a file of a few functions is a few kB. Is it the" \
-                      " right file?"
-        data = path.read_bytes()
+            return 2, f"{shown(path.name, 60)} is not a Python file: the checker imports it, so it must end in .py"
+        compile(path.read_bytes(), str(path), "exec", dont_inherit=True)  # decoded as Python imports it
     except FileNotFoundError:
         return 2, f"there is no file {where}"
     except OSError as error:
         return 2, f"cannot read {where}: {error.strerror}"
-    if b"\0" in data:
-        line = data[: data.index(b"\0")].count(b"\n") + 1
-        return 1, (f"{where}, line {line}: the file contains a null byte (\\0), which Python source cannot hold;"
-                   " it was probably saved by a word processor. Save it as plain text.")
-    try:
-        source = data.decode("utf-8-sig")  # what editors save; a `coding:` comment for another is not honoured
-    except UnicodeDecodeError as error:
-        line = data[: error.start].count(b"\n") + 1
-        return 1, f"{where}, line {line}: this line is not valid text (byte {data[error.start]:#04x}); save the file" \
-                  " as UTF-8."
-    try:
-        compile(source, str(path), "exec", dont_inherit=True)
-    except SyntaxError as error:  # IndentationError and TabError too
+    except SyntaxError as error:  # IndentationError and TabError too; a null byte or text that is not UTF-8
         why = {"TabError": " Indent with spaces only; most editors can turn tabs into spaces.",
                "IndentationError": " The lines of one block must start in the same column."}
-        kind, text = type(error).__name__, (source.splitlines() or [""])[max(0, (error.lineno or 1) - 1)]
+        kind, text = type(error).__name__, (error.text or "").rstrip("\n")
         quoted = f"    {shown(text.strip(), None)}"
         if error.offset and text.strip() and kind == "SyntaxError":
             quoted += "\n    " + " " * max(0, error.offset - 1 - (len(text) - len(text.lstrip()))) + "^"
-        return 1, f"{where}, line {error.lineno}: {kind}: {shown(error.msg, None)}.{why.get(kind, '')}\n{quoted}"
+        at = f", line {error.lineno}" if error.lineno else ""
+        return 1, f"{where}{at}: {kind}: {shown(error.msg, None)}.{why.get(kind, '')}\n{quoted}"
     return None
 
 
@@ -110,67 +83,34 @@ def source_notes(path: Path, name: str, parameters: list) -> tuple[str | None, s
     return None, note
 
 
-class NotOutputs(Exception):
-    """What a student's function returned is not what was asked for; the message says what."""
-
-
-def as_arrays(result, names: tuple, shape: tuple, np) -> tuple:
-    """The function's outputs as float arrays of `shape`, one per name, not copied (a reused input shows).
-    numpy is passed in: this module imports nothing heavy."""
-    wanted = f"({', '.join(names)})"
-    if result is None:
-        raise NotOutputs(f"returns None: the function ends without returning {wanted}")
-    if isinstance(result, np.ndarray) and result.ndim == 1:
-        raise NotOutputs(f"returns one array of shape {result.shape}; it must return {len(names)}, {wanted}")
-    try:
-        values = list(result)
-    except TypeError:
-        raise NotOutputs(f"returns one {type(result).__name__}, not {wanted}") from None
-    if len(values) != len(names):
-        raise NotOutputs(f"returns {len(values)} values; it must return {len(names)}, {wanted}")
-    arrays = []
-    for what, value in zip(names, values, strict=True):
-        try:
-            arrays.append(np.asarray(value, dtype=float))
-        except (TypeError, ValueError):
-            raise NotOutputs(f"returns a {what} that is not numbers: {type(value).__name__}") from None
-        if arrays[-1].shape != shape:
-            raise NotOutputs(f"returns a {what} of shape {arrays[-1].shape}; it must have shape {shape}")
-    return tuple(arrays)
-
-
 # --- the parent: start the child, keep what it says, end it on every path ---
 
 
 @dataclass
 class Run:
     results: dict = field(default_factory=dict)  # task index -> the collector's answer, or {"error": ...}
-    stopped: dict = field(default_factory=dict)  # task index -> "time limit", "exit code N" or "crashed (...)"
-    imported: dict | None = None  # {"error": ...} if importing the student's file failed
-    clashes: list = field(default_factory=list)  # (file beside the student's, the module Python uses instead)
+    stopped: dict = field(default_factory=dict)  # task index -> "time limit", "exit code N" or the signal
+    imported: dict | None = None  # {"error": ...} or {"stopped": ...} if importing the student's file failed
     printed: bytes = b""  # the first KEPT_OUTPUT_BYTES of what the student's code printed
     printed_bytes: int = 0
     prints: int = 0  # print() calls made once the kept bytes were full: counted, never formatted
     malformed: str | None = None  # what was wrong with the child's answers, if they could not be read
 
 
-def collect(path: Path, collector: str, tasks: list, prog: str, time_limit: float = 20.0) -> Run:
+def collect(path: Path, collector: str, tasks: list, time_limit: float = 20.0) -> Run:
     """Run `tasks` (dicts; "group" names a task's group) on the student's file, in as many children as needed.
-    (`prog` names the checker; a signal meanwhile is the guard's one line.)"""
+    A signal meanwhile is the guard's one line, which says the run was stopped."""
     run, pending, said = Run(), list(range(len(tasks))), interrupts.said()
-    interrupts.said("your file's run was stopped and its scratch folder removed")  # what a signal says meanwhile
-    try:
-        while pending and run.imported is None and run.malformed is None:
-            stuck = _one_child(path, collector, tasks, pending, time_limit, run)
-            if stuck is None:
-                break
-            group = tasks[stuck].get("group")  # the stuck task's group is lost; the others get a fresh child
-            for i in pending:
-                if i not in run.results and (i == stuck or tasks[i].get("group") == group):
-                    run.stopped[i] = run.stopped.get(stuck, "")
-            pending = [i for i in pending if i not in run.results and i not in run.stopped]
-    finally:
-        interrupts.said(said)
+    interrupts.said("your file's run was stopped and its scratch folder removed")
+    while pending and run.imported is None and run.malformed is None:
+        stuck = _one_child(path, collector, tasks, pending, time_limit, run)
+        if stuck is None:
+            break
+        for i in pending:  # the stuck task's group is lost; the others get a fresh child
+            if i not in run.results and tasks[i].get("group") == tasks[stuck].get("group"):
+                run.stopped.setdefault(i, run.stopped[stuck])
+        pending = [i for i in pending if i not in run.results and i not in run.stopped]
+    interrupts.said(said)
     return run
 
 
@@ -184,33 +124,23 @@ def _one_child(path, collector, tasks, pending, time_limit, run) -> int | None:
                "TMPDIR": scratch}  # -s -P -B: no user site, nothing from the working folder, no .pyc written
         fd, answers_write = os.pipe()
         with open(fd, "rb", buffering=0) as pipe:  # its closing (here, or by any signal) ends the child's group
-            try:
-                child = subprocess.Popen(
-                    [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job)],
-                    cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                    stderr=subprocess.DEVNULL, pass_fds=(answers_write,), start_new_session=True)
-            finally:
-                os.close(answers_write)
+            child = subprocess.Popen(
+                [sys.executable, "-s", "-P", "-B", "-c", CHILD, str(answers_write), str(REPO), str(job)],
+                cwd=scratch, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL, pass_fds=(answers_write,), start_new_session=True)
+            os.close(answers_write)
             answers, deadline, phase, ended = bytearray(), time.monotonic() + time_limit, 0, False
-            try:
-                while not ended and time.monotonic() < deadline and len(answers) <= MAX_ANSWER_BYTES:
-                    if select.select([pipe], [], [], 0.01)[0]:
-                        answers += pipe.read(1 << 20)
-                    if phase < len(PHASES) and PHASES[phase] in answers:  # the import, then the tasks: time afresh
-                        phase, deadline = phase + 1, time.monotonic() + time_limit
-                    ended = answers.endswith(DONE) or child.poll() is not None  # (its threads may outlive DONE)
-                code = child.poll()
-            finally:
-                with contextlib.suppress(OSError):  # its session: all it started, unless a process left it
-                    os.killpg(child.pid, signal.SIGKILL)
-                child.wait()
-                for _ in range(200):  # the group's processes are gone in a moment: SIGKILL cannot be caught
-                    try:
-                        os.killpg(child.pid, 0)
-                    except ProcessLookupError:
-                        break
-                    time.sleep(0.005)
-            os.set_blocking(fd, False)  # what is left, unless a process that escaped the group holds the pipe
+            while not ended and time.monotonic() < deadline and len(answers) <= MAX_ANSWER_BYTES:
+                if select.select([pipe], [], [], 0.01)[0]:
+                    answers += pipe.read(1 << 20)
+                if phase < len(PHASES) and PHASES[phase] in answers:  # the import, then the tasks: time afresh
+                    phase, deadline = phase + 1, time.monotonic() + time_limit
+                ended = answers.endswith(DONE) or child.poll() is not None  # (its threads may outlive DONE)
+            code = child.poll()
+            with contextlib.suppress(OSError):  # its session: all it started, unless a process left it; SIGKILL
+                os.killpg(child.pid, signal.SIGKILL)  # ends them at once (on any other way out: the sentinel)
+            child.wait()
+            os.set_blocking(fd, False)  # what is left: the sentinel holds the pipe open, so it never ends
             while len(answers) <= MAX_ANSWER_BYTES and (chunk := pipe.read(1 << 20)):
                 answers += chunk
     return _read_answers(bytes(answers[:MAX_ANSWER_BYTES + 1]), run, pending, ended, code)
@@ -228,8 +158,6 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
                 run.results[int(message["task"])] = dict(message["result"])
             elif "import" in message:
                 run.imported = dict(message["import"])
-            elif "clashes" in message:
-                run.clashes = [(str(a), str(b)) for a, b in message["clashes"]]
             elif "printed" in message:  # the first KEPT_OUTPUT_BYTES of what the student's code printed
                 printed += str(message["printed"])
             elif "dropped" in message:  # what the sink counted and did not pass on, so far
@@ -243,38 +171,15 @@ def _read_answers(answers: bytes, run: Run, pending: list, ended: bool, code: in
     run.printed_bytes, run.prints = run.printed_bytes + len(printed.encode()) + dropped, run.prints + prints
     why = "time limit" if not ended else f"exit code {code}"
     if ended and code is not None and code < 0:
-        why = f"crashed ({signal.strsignal(-code).lower()}, signal {-code})"
-    if stage is None or stage == "import" and run.imported is None:
-        if ended and stage is None:
-            run.malformed = f"Python stopped before your file was even imported ({why})"
-        else:
-            run.imported = {"stopped": why}
-        return None
-    missing = [i for i in pending if i not in run.results]  # the tasks run in order: the first missing one is
-    if missing:  # where it stopped (time limit, os._exit, a crash), the one to blame
-        run.stopped[missing[0]] = why
+        why = f"{signal.strsignal(-code).lower()}, signal {-code}"
+    if stage is None and ended:
+        run.malformed = f"Python stopped before your file was even imported ({why})"
+    elif stage is None or stage == "import" and run.imported is None:
+        run.imported = {"stopped": why}
+    elif missing := [i for i in pending if i not in run.results]:  # the tasks run in order: the first missing
+        run.stopped[missing[0]] = why  # one is where it stopped (time limit, os._exit, a crash), the one to blame
         return missing[0]
     return None
-
-
-# --- comparing outputs with the reference's (numpy arrays, passed in) ---
-
-
-def agrees(mine, theirs):
-    """Per row: equal up to round-off (1e-9 of the size), so any order of the same arithmetic agrees."""
-    import numpy as np  # here, so that importing this module stays light
-
-    with np.errstate(all="ignore"):
-        return (np.abs(mine - theirs) <= 1e-9 * np.maximum(1.0, np.abs(theirs))).reshape(len(mine), -1).all(axis=1)
-
-
-def gaps(mine, theirs):
-    """Per row of a run: the largest difference from the reference's, relative to the run's largest value."""
-    import numpy as np
-
-    with np.errstate(all="ignore"):
-        gap = np.max(np.abs(mine - theirs), axis=1) / max(1.0, float(np.max(np.abs(theirs))))
-    return np.where(np.isfinite(gap), gap, np.inf)
 
 
 # --- sentences ---
@@ -287,23 +192,18 @@ def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str |
         return f"your file's run did not finish: {run.malformed}."
     if run.imported and "error" in run.imported:
         return f"your file stopped while Python was importing it: it {error_sentence(run.imported['error'])}."
+    if run.imported and run.imported["stopped"] != "time limit":
+        return (f"your file ended Python while it was being imported ({run.imported['stopped']}): does it call"
+                " os._exit() at the top level? Only definitions need to be there.")
     if run.imported:
-        flood = f" It printed {run.printed_bytes:,} bytes meanwhile." if run.printed_bytes > 1_000_000 else ""
-        if run.imported["stopped"].startswith("crashed"):
-            return f"your code {run.imported['stopped']} while Python was importing your file.{flood}"
-        if run.imported["stopped"].startswith("exit"):
-            return (f"your file ended Python while it was being imported ({run.imported['stopped']}): does it call"
-                    f" os._exit() at the top level? Only definitions need to be there.{flood}")
         return (f"importing your file did not finish within {time_limit:.0f} s. Code at the top level runs when a"
                 " file is imported: put trial runs under `if __name__ == \"__main__\":`, and look for a loop that"
-                f" never ends.{flood}")
+                " never ends.")
     for i in indices:
         stopped, result = run.stopped.get(i), run.results.get(i, {})
         if stopped == "time limit":
             return (f"stopped after {time_limit:.0f} s {where(i)}, without returning. Is there a loop that never ends,"
                     " or a sleep? One call should take well under a millisecond.")
-        if stopped and stopped.startswith("crashed"):
-            return f"your code {stopped} {where(i)}: Python itself stopped. Does it call os.kill(), os.abort(), ctypes?"
         if stopped:
             return (f"the checker's run of your file ended by itself ({stopped}) {where(i)}. Does your code call"
                     " os._exit(), or crash Python? A function should only return its result.")
@@ -320,19 +220,6 @@ def failure_sentence(run: Run, indices: list, where, time_limit: float) -> str |
         if "problem" in result:
             return f"your function {shown(result['problem'], 300)}."
     return None
-
-
-def print_notes(run: Run) -> None:
-    """What the student's code printed (the start of it) and any module clash, before the verdicts."""
-    if run.printed_bytes or run.prints:
-        lines = run.printed.decode("utf-8", "replace").splitlines()[:8]
-        more = f" and called print() {run.prints:,} times more" if run.prints else ""
-        print(f"Your code printed {run.printed_bytes:,} bytes{more} while it was checked; the start:")
-        print("\n".join(f"  | {shown(line, 200)}" for line in lines) + "\n")
-    clashes = [f"{shown(file)} beside your file has the name of {module}, which Python imports first; `import"
-               f" {shown(Path(file).stem)}` gets that one, never yours. Rename yours." for file, module in run.clashes]
-    if clashes:
-        print(textwrap.fill(" ".join(clashes), width=100) + "\n")
 
 
 def error_sentence(error: dict) -> str:
@@ -371,7 +258,11 @@ def _main(prog: str, doc: str, default: Path, what: str, check, argv) -> int:
         checked(default, args.file, {})
         return 1
     parts, messages, run = check(args.file)
-    print_notes(run)
+    if run.printed_bytes or run.prints:  # what the student's code printed (the start of it), before the verdicts
+        more = f" and called print() {run.prints:,} times more" if run.prints else ""
+        print(f"Your code printed {run.printed_bytes:,} bytes{more} while it was checked; the start:")
+        lines = run.printed.decode("utf-8", "replace").splitlines()[:8]
+        print("\n".join(f"  | {shown(line, 200)}" for line in lines) + "\n")
     explain(*messages)
     solved = all(parts.values())
     print("\nAll solved." if solved else "\nNot solved yet: read the messages above, edit, and run it again.")
@@ -434,7 +325,6 @@ def _child() -> None:
     sys.path.append(str(student.parent))  # after the standard library and site-packages
     collector = importlib.import_module(job["collector"])
     course = {os.path.realpath(m.__file__) for m in list(sys.modules.values()) if getattr(m, "__file__", None)}
-    send({"clashes": _clashes(student, course)})
     send({"stage": "import"})
     try:
         spec = importlib.util.spec_from_file_location("student", student)
@@ -456,33 +346,15 @@ def _child() -> None:
     os._exit(0)  # the student's threads and exit handlers do not run on
 
 
-def _clashes(student: Path, course: set) -> list:
-    """Modules beside the student's file whose name Python finds elsewhere first (threading.py, random.py)."""
-    found = []
-    for file in sorted(student.parent.glob("*.py")):
-        if file == student or not file.stem.isidentifier() or os.path.realpath(file) in course:
-            continue
-        try:
-            spec = importlib.util.find_spec(file.stem)
-        except (ImportError, ValueError):
-            continue
-        if spec and spec.origin and Path(spec.origin).parent != student.parent:
-            kind = "Python's standard module" if file.stem in sys.stdlib_module_names else "the installed module"
-            found.append((file.name, f"{kind} {file.stem}"))
-    return found
-
-
 def _described(error: BaseException, student: Path, course: set) -> dict:
     """The exception in one line, and the deepest line it passed through in the student's own code: the
     student's file, or a helper in its folder that is not one of the course's modules."""
-    folder = str(student.parent.resolve()) + os.sep
-    mine = [f for f in traceback.extract_tb(error.__traceback__)
-            if os.path.realpath(f.filename) == str(student.resolve())
-            or (os.path.realpath(f.filename).startswith(folder) and os.path.realpath(f.filename) not in course)]
+    folder, mine = str(student.parent.resolve()) + os.sep, str(student.resolve())
+    frames = [f for f in traceback.extract_tb(error.__traceback__) if (file := os.path.realpath(f.filename)) == mine
+              or file.startswith(folder) and file not in course]
     message = f"exit code {error.code}" if isinstance(error, SystemExit) else str(error)
     described = {"type": type(error).__name__, "message": message[:300]}
-    if mine:
-        where = mine[-1]
-        described.update(file=Path(where.filename).name, line=where.lineno, code=(where.line or "").strip(),
-                         function=where.name)
+    if frames:
+        described.update(file=Path(frames[-1].filename).name, line=frames[-1].lineno,
+                         code=(frames[-1].line or "").strip(), function=frames[-1].name)
     return described

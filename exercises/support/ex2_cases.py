@@ -7,7 +7,6 @@ import math
 import numpy as np
 
 import engine
-from curriculum.common.student_code import NotOutputs, as_arrays
 from engine_referee import damped_oscillator
 
 CHAPTER = ("orbit", "spring", "freefall")  # built by the engine, with the chapter's constants
@@ -59,6 +58,34 @@ def exact_position(name: str, q0, v0, t: float) -> np.ndarray:
     return damped_oscillator(np.asarray(q0, dtype=float), np.asarray(v0, dtype=float), k, m, c, [t])[0]
 
 
+class NotOutputs(Exception):
+    """What a student's step returned is not what was asked for; the message says what."""
+
+
+def as_arrays(result) -> tuple:
+    """A step's outputs as float arrays of shape (3,), one per name in STATE, not copied (a reused input shows)."""
+    wanted = f"({', '.join(STATE)})"
+    if result is None:
+        raise NotOutputs(f"returns None: the function ends without returning {wanted}")
+    if isinstance(result, np.ndarray) and result.ndim == 1:
+        raise NotOutputs(f"returns one array of shape {result.shape}; it must return {len(STATE)}, {wanted}")
+    try:
+        values = list(result)
+    except TypeError:
+        raise NotOutputs(f"returns one {type(result).__name__}, not {wanted}") from None
+    if len(values) != len(STATE):
+        raise NotOutputs(f"returns {len(values)} values; it must return {len(STATE)}, {wanted}")
+    arrays = []
+    for what, value in zip(STATE, values, strict=True):
+        try:
+            arrays.append(np.asarray(value, dtype=float))
+        except (TypeError, ValueError):
+            raise NotOutputs(f"returns a {what} that is not numbers: {type(value).__name__}") from None
+        if arrays[-1].shape != (3,):
+            raise NotOutputs(f"returns a {what} of shape {arrays[-1].shape}; it must have shape (3,)")
+    return tuple(arrays)
+
+
 def collect(steps, task: dict) -> dict:
     """Run one task with steps.<task["function"]>: single steps, each twice from the same fresh state ("probes"),
     or one whole run, each step fed exactly what the one before returned (lists stay lists, as in engine.simulate).
@@ -87,7 +114,7 @@ def collect(steps, task: dict) -> dict:
                     q, v = np.array(probe["q"]), np.array(probe["v"])
                     calls[0] = 0
                     step_taken = step(q, v, mass(probe["system"]), force_of(probe["system"]), probe["dt"])
-                    q_next, v_next = as_arrays(step_taken, STATE, (3,), np)
+                    q_next, v_next = as_arrays(step_taken)
                     kept.append([q_next.tolist(), v_next.tolist()])
                     changed |= {name for name, given in (("q", q), ("v", v)) if given.tolist() != probe[name]}
                 counts.append(calls[0])
@@ -102,7 +129,7 @@ def collect(steps, task: dict) -> dict:
                     raise
                 raise NotOutputs(f"returns a {type(q).__name__}, not a numpy array; a whole run hands each step what"
                                  f" the one before returned, then it raised {type(error).__name__}: {error}") from None
-            q_next, v_next = as_arrays(returned, STATE, (3,), np)
+            q_next, v_next = as_arrays(returned)
             if reused is None and any(np.shares_memory(a, b) for a in (q_next, v_next) for b in (q, v)):
                 reused = k
             rows.append(q_next.tolist() + v_next.tolist())

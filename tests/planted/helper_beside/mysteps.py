@@ -1,2 +1,0 @@
-def weights():
-    return 1 / 6, 1 / 3, 1 / 3, 1 / 6

@@ -1,9 +1,0 @@
-"""Planted mistake: divided by m twice."""
-
-from _right import rk4_step  # noqa: F401  (the right one, from the helper beside this file)
-
-
-def semi_implicit_step(q, v, m, force, dt):
-    a = force(q, v) / m
-    v_next = v + a / m * dt
-    return q + v_next * dt, v_next
