@@ -655,9 +655,8 @@ def test_a_students_page_reads_short(page, most_words):
     assert words <= 40, f"{page}: a sentence of {words} words: {sentence!r}"
 
 
-@pytest.mark.parametrize("command, pasted", [  # exercise 4 measures for a few seconds: slow
-    pytest.param(command, pasted, marks=pytest.mark.slow if "ex4_long_run" in command else ())
-    for command, pasted in answers_with_their_commands()])
+@pytest.mark.slow  # each run measures for seconds, as the one with --more below does
+@pytest.mark.parametrize("command, pasted", answers_with_their_commands())
 def test_each_exercise_answers_with_a_short_lesson_then_the_next_line(command, pasted):
     """Without --more: the verdict, a lesson of at most LESSON_WORDS words (the same lesson --more starts with,
     pasted in ANSWERS.md) and the Next line, last. Exercise 2's checker says "All solved." and then Next."""

@@ -365,7 +365,8 @@ def key_labels(entities, origin, names):
     return {name: label_of[packed(look.colour)] for name, look in course.looks(names).items()}
 
 
-@pytest.mark.parametrize("case", [*LISTED, *EDGES])
+@pytest.mark.parametrize("case", [pytest.param(case, marks=pytest.mark.slow if case == "ensemble of 1000" else ())
+                                  for case in [*LISTED, *EDGES]])
 def test_every_recording_frames_what_stays_bounded_and_shows_every_integrator(case, tmp_path):
     """Issue 24, from what each recording holds: every spatial view's camera frames the exact motion (or the runs
     that stay bounded), and the exact motion fills a good part of it (not a dot in a corner, not off the edge);
