@@ -655,7 +655,7 @@ def test_a_students_page_reads_short(page, most_words):
     assert words <= 40, f"{page}: a sentence of {words} words: {sentence!r}"
 
 
-@pytest.mark.slow  # each run measures for seconds, as the one with --more below does
+@pytest.mark.slow  # each run measures for seconds, as the --more rerun above does
 @pytest.mark.parametrize("command, pasted", answers_with_their_commands())
 def test_each_exercise_answers_with_a_short_lesson_then_the_next_line(command, pasted):
     """Without --more: the verdict, a lesson of at most LESSON_WORDS words (the same lesson --more starts with,
