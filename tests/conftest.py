@@ -42,10 +42,22 @@ def _the_checkouts_journal_is_left_alone():  # under pytest-xdist each worker ch
                                " environment's COURSE_JOURNAL")
 
 
+def pytest_collection_modifyitems(items):
+    """The slow tests first: under `pytest -n 2` the longest start early and the short ones even out the two cores
+    (in collection order a 30 s test could start last and run alone)."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
 def run_engine(*args, cwd=None, env=None, timeout=120):
     """`python engine.py ARGS` in a fresh interpreter; returns the CompletedProcess."""
     return subprocess.run([sys.executable, str(ENGINE), *map(str, args)], cwd=cwd or REPO, env=env,
                           capture_output=True, text=True, timeout=timeout)
+
+
+def run_exercise(module, *args, cwd=REPO, timeout=300):
+    """`python -m exercises.<module> ARGS` (the course's journal off, as everywhere here); a CompletedProcess."""
+    return subprocess.run([sys.executable, "-m", f"exercises.{module}", *map(str, args)], cwd=cwd, timeout=timeout,
+                          env={**os.environ, "PYTHONPATH": str(REPO)}, capture_output=True, text=True)
 
 
 def run(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0, every: int = 1):

@@ -37,43 +37,27 @@ def damped_xml(integrator: str, dt: float, system: dict, eulerdamp: bool = True)
     return model_xml(joint, integrator, dt, system["m"], flag="" if eulerdamp else '<flag eulerdamp="disable"/>')
 
 
-def build(system_name: str, integrator: str, dt: float = 0.01, seed: int = 0):
-    """(model, data, system, dof): MuJoCo set to the engine system's initial state."""
+def mujoco_trajectory(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0):
+    """(steps + 1, 3) positions from mj_step from the engine system's start, padded with zeros where the model has
+    no joint; a force law MuJoCo has no native model for (the orbit's pull) is its passive-force callback,
+    always reset afterwards."""
     system = engine.build_system(system_name, np.random.default_rng(seed))
     model = mujoco.MjModel.from_xml_string(xml_for(system_name, integrator, dt, system["m"]))
-    data = mujoco.MjData(model)
-    dof = model.nq  # 1 for the spring (x only), 3 otherwise
+    data, dof = mujoco.MjData(model), model.nq  # 1 for the spring (x only), 3 otherwise
     data.qpos[:], data.qvel[:] = system["q0"][:dof], system["v0"][:dof]
-    return model, data, system, dof
-
-
-@contextlib.contextmanager
-def passive_force(system_name: str, system: dict):
-    """Install the system's force law (the orbit's pull) as MuJoCo's passive-force callback, unless MuJoCo
-    models it natively; always reset afterwards."""
-    if system_name in NATIVE:
-        yield
-        return
+    trajectory = np.zeros((steps + 1, 3))
+    trajectory[0, :dof] = data.qpos
 
     def pull(model, data):
         data.qfrc_passive[:] += system["force"](data.qpos, data.qvel)
 
-    mujoco.set_mjcb_passive(pull)
+    mujoco.set_mjcb_passive(None if system_name in NATIVE else pull)
     try:
-        yield
-    finally:
-        mujoco.set_mjcb_passive(None)
-
-
-def mujoco_trajectory(system_name: str, integrator: str, dt: float = 0.01, steps: int = 2000, seed: int = 0):
-    """(steps + 1, 3) positions from mj_step, padded with zeros where the model has no joint."""
-    model, data, system, dof = build(system_name, integrator, dt, seed)
-    trajectory = np.zeros((steps + 1, 3))
-    trajectory[0, :dof] = data.qpos
-    with passive_force(system_name, system):
         for i in range(1, steps + 1):
             mujoco.mj_step(model, data)
             trajectory[i, :dof] = data.qpos
+    finally:
+        mujoco.set_mjcb_passive(None)
     return trajectory
 
 

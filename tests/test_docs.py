@@ -1,4 +1,5 @@
-"""What a student reads before predicting gives no answer away, and every command printed in the READMEs runs.
+"""What a student reads before predicting gives no answer away, every command printed in the READMEs runs, and
+the students' pages and the exercises' lessons read short.
 
 Every exercise's answer is read from exercises/solutions/ANSWERS.md ("The graded answer is `...`", checked
 against the runs pasted there) by the exercise's own parser, so it comes in its own form (a value per name, a
@@ -14,14 +15,19 @@ import contextlib
 import functools
 import importlib
 import io
+import json
+import math
 import re
 import shlex
 import subprocess
 import sys
 import tokenize
+from decimal import Decimal, localcontext
 
+import numpy as np
 import pytest
 
+import engine
 from conftest import REPO, run, run_engine
 from curriculum.common import predict, report
 from curriculum.common.exercise import exercises
@@ -39,16 +45,21 @@ def section(heading: str) -> str:
     return ANSWERS.split(f"## {heading}")[1].split("\n## ")[0]
 
 
+def answers_with_their_commands() -> list:
+    """(command, pasted output) for every output block in ANSWERS.md, from the `python ...` line above it."""
+    return re.findall(r"`(python [^`]+)`[^`\n]*\n\n```\n(.*?)```", ANSWERS, flags=re.S)
+
+
 # --- every exercise's answer, whatever its form ---
 
 
 @functools.cache
-def asked(module_name: str) -> tuple:
-    """(bare question's output, what its ask() declared: {"question", "answers"}) for a predict-then-run exercise."""
-    module = importlib.import_module(f"exercises.{module_name}")
+def asked(module_name: str, *argv: str) -> tuple:
+    """(what `python -m exercises.<module_name> ARGV` prints, run here, and what its ask() declared: {"question",
+    "answers"}); bare, a predict-then-run exercise's question; with --help, its help."""
     out = io.StringIO()
     with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
-        module.main([])
+        importlib.import_module(f"exercises.{module_name}").main(list(argv))
     return out.getvalue(), dict(predict._asked)
 
 
@@ -93,11 +104,16 @@ def words_of(sentence: str) -> list:
     return [w.removesuffix("'s") for w in re.findall(r"[a-z0-9_~][\w~.,'/-]*[\w~]|[a-z0-9~]", sentence.lower())]
 
 
-def where(words: list, find, longest: int = predict.LONGEST_NAME) -> list:
-    """[(start, end, what)] for every run of words that `find` names, the longest run first."""
-    found, at = [], 0
+def where(words: list, names: predict.OneOf) -> list:
+    """[(start, end, what)] for every run of words that one of `names` names, the longest run first."""
+    return runs_named(tuple(words), tuple(names.names))
+
+
+@functools.cache  # the same sentences are searched for every claim of every exercise
+def runs_named(words: tuple, names: tuple) -> list:
+    find, found, at = predict.OneOf(names).find, [], 0
     while at < len(words):
-        for length in range(min(longest, len(words) - at), 0, -1):
+        for length in range(min(predict.LONGEST_NAME, len(words) - at), 0, -1):
             name = find(" ".join(words[at:at + length]))
             if name is not None:
                 found.append((at, at + length, name))
@@ -136,17 +152,17 @@ def claims(truth, answers, question: str):
 
                 def said(sentence, name=name, value=value, values=values, keys=keys):
                     words = words_of(sentence)
-                    if {w[2] for w in where(words, values.find)} == set(values.names):
+                    if {w[2] for w in where(words, values)} == set(values.names):
                         return False  # the choices listed, as the question lists them: no claim
-                    return near([w for w in where(words, names.find) if w[2] == name],
-                                [w for w in where(words, values.find) if w[2] == value]) and \
+                    return near([w for w in where(words, names) if w[2] == name],
+                                [w for w in where(words, values) if w[2] == value]) and \
                         any(stem(w) in keys for w in words)
             else:
                 keys, forms = key_stems(question, names.names), number_forms(value)
 
                 def said(sentence, name=name, forms=forms, keys=keys):
                     words = words_of(sentence)
-                    return near([w for w in where(words, names.find) if w[2] == name],
+                    return near([w for w in where(words, names) if w[2] == name],
                                 [(i, i + 1) for i, w in enumerate(words) if w.split("-")[0] in forms]) and \
                         any(stem(w) in keys for w in words)
             yield f"{name}={value}", said
@@ -156,7 +172,7 @@ def claims(truth, answers, question: str):
         for name in sorted({truth} if isinstance(truth, str) else truth):
             def said(sentence, name=name, keys=keys):
                 words = words_of(sentence)
-                named = {w[2] for w in where(words, names.find)}
+                named = {w[2] for w in where(words, names)}
                 return name in named and named != set(names.names) and \
                     len({stem(w) for w in words} & keys) >= min(3, len(keys))
             yield name, said
@@ -179,7 +195,7 @@ def measured_figures(number: int) -> set:
     blocks = re.findall(r"```\n(.*?)```", section(f"Exercise {number}"), flags=re.S)
     numbers = set(re.findall(r"\d[\d,]*\.\d+(?:e[-+]\d+)?(?![.\d])|\d{1,3}(?:,\d{3})+|\b\d{3,}\b", "".join(blocks)))
     module_name = next(name for n, name, _ in EXERCISES if n == number)
-    inputs = " ".join([asked(module_name)[0], help_of(module_name)]) if number in graded_answers() else ""
+    inputs = " ".join([asked(module_name)[0], asked(module_name, "--help")[0]]) if number in graded_answers() else ""
     def digits(n):  # significant ones: 1.99 and 727 have three, dt 0.25 two, 2,000 steps one
         mantissa = re.sub(r"e.*", "", n)
         return len(re.sub(r"\D|^[0.]+", "", mantissa if "." in mantissa else mantissa.rstrip("0,")))
@@ -218,14 +234,6 @@ def leaks_in(text: str, found: list) -> list:
 # --- what a student reads before each exercise ---
 
 
-def help_of(module_name: str) -> str:
-    module = importlib.import_module(f"exercises.{module_name}")
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out), pytest.raises(SystemExit):
-        module.main(["--help"])
-    return out.getvalue()
-
-
 def without_output_blocks(text: str) -> str:
     """Output blocks (the chapter's drift table, pasted runs) are measurements of the chapter, not answers;
     prose and ```bash blocks are where the old spoilers were."""
@@ -245,7 +253,7 @@ def by_exercise(text: str, heading: str) -> dict:
 
 def explanations() -> dict:
     """{number: what its runs print after the verdict: the lesson and, under --more, the whole explanation},
-    from the runs ANSWERS.md pastes (tests/test_docs.py reruns them and compares, and tests/test_prose.py checks
+    from the runs ANSWERS.md pastes (the slow test below reruns them and compares, and the lesson test checks
     that the default lesson is the one pasted)."""
     told = {}
     for number, _, _ in EXERCISES:
@@ -286,22 +294,13 @@ def read_before(number: int) -> dict:
         if module_name == PRISTINE_STUB.stem:  # the stub as a student first opens it: the pristine copy
             texts["exercises/ex2_integrators.py docstring"] = ast.get_docstring(ast.parse(PRISTINE_STUB.read_text()))
             checker = f"check_ex{n}"
-            texts[f"python -m exercises.{checker} --help"] = help_of(checker)
+            texts[f"python -m exercises.{checker} --help"] = asked(checker, "--help")[0]
             texts[f"exercises/{checker}.py docstring"] = importlib.import_module(f"exercises.{checker}").__doc__
             continue
         texts[f"exercises/{module_name}.py docstring"] = importlib.import_module(f"exercises.{module_name}").__doc__
-        texts[f"python -m exercises.{module_name} --help"] = help_of(module_name)
+        texts[f"python -m exercises.{module_name} --help"] = asked(module_name, "--help")[0]
         texts[f"python -m exercises.{module_name} (bare question)"] = asked(module_name)[0]
     return texts
-
-
-def test_the_answers_are_where_teachers_find_them():
-    answers = graded_answers()
-    assert answers[1] == {"euler": "grows", "semi_implicit": "stays", "rk4": "grows"}
-    assert set(answers[3]) == {"euler", "semi_implicit", "rk4"} and isinstance(answers[4], int)
-    assert answers[6] == frozenset({"rk4", "implicit"})
-    assert len(measured_figures(3) | measured_figures(4)) > 40
-    assert "python -m exercises.ex4_long_run --predict" in section("Exercise 4")
 
 
 @pytest.mark.parametrize("number, module", [(n, m) for n, m, kind in EXERCISES if kind == "predict"])
@@ -363,8 +362,6 @@ def test_readmes_map_names_code_that_exists_where_it_says():
 
 def test_readmes_pasted_runs_are_what_the_engine_prints(tmp_path):
     """README's two pasted runs, line for line (the default run whole, but for its wall clock; the freefall's table)."""
-    import engine
-
     readme = (REPO / "README.md").read_text()
     fences = re.findall(r"^```(\w*)\n(.*?)^```$", readme, flags=re.S | re.M)  # (info string, body), in order
     blocks = [body for info, body in fences if not info and "integrator " in body]
@@ -413,6 +410,7 @@ def test_the_spoiler_patterns_catch_the_old_leaks():
     for number, texts in old.items():
         for text in texts:
             assert leaks_in(text, spoilers(number)), (number, text)
+    assert len(measured_figures(3) | measured_figures(4)) > 40  # the pasted runs' figures are found
 
 
 def test_the_spoiler_test_knows_an_answer_that_is_one_name():
@@ -431,11 +429,7 @@ def test_the_spoiler_test_knows_an_answer_that_is_one_name():
 
 # --- every command printed in the READMEs runs as written, from the repo root ---
 
-PLACEHOLDERS = {"<integrator>": "rk4", "<orbits>": "10", "=?": "=1", "=<word>": "=stays",
-                "path/to/your_file.py": "tests/planted/right_stacked.py"}
-# Quick: the bare questions and the checker. Slow (-m slow): the engine runs (test_cli.py runs those bare) and
-# the measuring runs, whose output tests/test_exercises.py checks with other predictions.
-SLOW = ("engine.py", "--predict")
+YOUR_FILE = ("path/to/your_file.py", "exercises/solutions/ex2_integrators.py")
 
 
 def printed_commands() -> list:
@@ -450,6 +444,24 @@ def printed_commands() -> list:
     return commands
 
 
+def filled(command: str) -> str:
+    """The command with ANSWERS.md's values in its placeholders: the prediction its section pastes, its file."""
+    predicted = re.search(r"--predict (\S+)", command)
+    if predicted and re.search(r"[<?]", predicted[1]):
+        module = command.split()[2]
+        pasted = [c for c, _ in answers_with_their_commands() if c.startswith(f"python -m {module} --predict ")]
+        assert pasted, f"{command}: ANSWERS.md pastes no --predict run of {module} to take a prediction from"
+        command = command.replace(predicted[1], re.search(r"--predict (.+?)(?= --|$)", pasted[0])[1])
+    return command.replace(*YOUR_FILE)
+
+
+def run_elsewhere(command: str) -> bool:
+    """A bare question is run by tests/test_exercises.py (from a scratch folder, where a file written would show),
+    ANSWERS.md's runs by the lesson test (without --more) and by the slow test below (with it)."""
+    return command in [f"python -m exercises.{module}" for module in PREDICT_THEN_RUN] + [
+        c.replace(" --more", "") for c, _ in answers_with_their_commands()]
+
+
 def test_the_readmes_print_the_commands_we_expect():
     commands = [c for _, c in printed_commands()]
     for module in [*PREDICT_THEN_RUN, *CHECKERS]:
@@ -459,27 +471,21 @@ def test_the_readmes_print_the_commands_we_expect():
 
 
 @pytest.mark.parametrize("readme, command", [
-    pytest.param(*rc, marks=pytest.mark.slow if any(s in rc[1] for s in SLOW) else ())
-    for rc in printed_commands()])
+    pytest.param(readme, command, marks=pytest.mark.slow if "engine.py" in command or "--predict" in command else ())
+    for readme, command in printed_commands() if not run_elsewhere(filled(command))])
 def test_every_printed_command_runs_as_written(readme, command, tmp_path):
-    """Placeholders get a value; engine runs write to a scratch --out (test_cli.py runs them quick and bare)."""
-    for placeholder, value in PLACEHOLDERS.items():
-        command = command.replace(placeholder, value)
-    argv = shlex.split(command)
-    if "--predict" in argv and "<" in argv[argv.index("--predict") + 1]:  # a placeholder this test has no value for:
-        pasted = [c for c, _ in answers_with_their_commands() if c.startswith(" ".join(argv[:3]) + " --predict")]
-        assert pasted, f"{command}: ANSWERS.md pastes no --predict run of {argv[2]} to take a prediction from"
-        argv[argv.index("--predict") + 1] = shlex.split(pasted[0])[4]  # the one its ANSWERS.md section pastes
+    """Placeholders filled from ANSWERS.md; what a run writes goes to scratch (engine's --out, exercise 5's --rrd,
+    the hand-in). Slow: the engine's runs and the measuring ones."""
+    argv, scratch = shlex.split(filled(command)), []
     if argv[1] == "engine.py" and "--help" not in argv:
-        argv += ["--out", str(tmp_path / "out")]
-    if "exercises.ex5_phase_blob" in argv and "--predict" in argv:
-        argv += ["--rrd", str(tmp_path / "ex5_blob.rrd")]  # its recording goes to scratch too
-    if "--handin" in argv:
-        argv += ["--out", str(tmp_path / "handin.zip")]  # and the archive
-    result = subprocess.run([sys.executable, *argv[1:]], cwd=REPO, capture_output=True, text=True, timeout=600)
+        scratch = ["--out", tmp_path / "out"]
+    elif "exercises.ex5_phase_blob" in argv or "--handin" in argv:
+        scratch = ["--rrd", tmp_path / "blob.rrd"] if "--predict" in argv else ["--out", tmp_path / "handin.zip"]
+    result = subprocess.run([sys.executable, *argv[1:], *scratch], cwd=REPO, capture_output=True, text=True,
+                            timeout=600)
     expected = {0, 1} if "check_ex2" in command else {0}  # a bare question too: asking is not an error
-    assert result.returncode in expected, f"{readme}: {command}\n{result.stdout}\n{result.stderr}"
-    assert "Traceback" not in result.stdout + result.stderr and "Error" not in result.stderr
+    assert result.returncode in expected and result.stderr == "", f"{command}\n{result.stdout}\n{result.stderr}"
+    assert not scratch or scratch[1].exists(), f"{command}: wrote no {scratch[1].name}"
 
 
 @pytest.mark.parametrize("module", [*PREDICT_THEN_RUN, *CHECKERS])
@@ -497,12 +503,6 @@ def test_every_exercise_runs_as_a_file_too(module, inside):
         assert result.returncode == 0 and f"python {script} --predict ANSWER" in result.stdout
 
 
-def answers_with_their_commands() -> list:
-    """(command, pasted output) for every output block in ANSWERS.md, from the `python ...` line above it."""
-    pairs = re.findall(r"`(python [^`]+)`[^`\n]*\n\n```\n(.*?)```", ANSWERS, flags=re.S)
-    return [(command, output) for command, output in pairs]
-
-
 def test_every_answer_block_says_which_command_printed_it():
     assert len(answers_with_their_commands()) == ANSWERS.count("```\n") // 2 >= 5
 
@@ -518,10 +518,6 @@ def test_the_answers_are_what_the_commands_print_today(command, pasted):
 
 def test_metrics_json_says_0_0_where_developing_says_so():
     """docs/DEVELOPING.md: from --dt 0.004 down RK4's drift "rounds to `0.0` in the file": never `-0.0`."""
-    import json
-    import math
-
-
     assert "which rounds to `0.0` in the file" in " ".join((REPO / "docs" / "DEVELOPING.md").read_text().split())
     written = json.loads(report.metrics_text(report.rounded({"rel_final": -4.4e-13, "rel_max": [-0.0, 1e-13]})))
     assert written == {"rel_final": 0.0, "rel_max": [0.0, 0.0]}
@@ -537,51 +533,10 @@ def test_ci_builds_its_own_environment_and_leaves_the_students_venv_alone():
     assert "python3 -m venv .venv" in (REPO / "README.md").read_text()
 
 
-def test_the_ensemble_report_says_truly_what_a_seed_changes():
-    """engine_ensembles.SEED_CHANGES ('the orbit's starting speed, 1 +- 0.05') against engine.build_system's draws."""
-    import numpy as np
-
-    import engine
-    from engine_ensembles import SEED_CHANGES, jittered
-
-    assert set(SEED_CHANGES) <= set(engine.SYSTEMS)  # a system without words is described by jittered()
-    assert jittered(functools.partial(engine.build_system, "orbit")) == "the start's v0's y"
-    for name, said in SEED_CHANGES.items():
-        centre, spread = map(float, re.search(r"([\d.]+) \+- ([\d.]+)", said).groups())
-        starts = [engine.build_system(name, np.random.default_rng(seed)) for seed in range(1000)]
-        state = np.array([np.concatenate([s["q0"], s["v0"]]) for s in starts])  # (seeds, q0 then v0)
-        varies = np.flatnonzero(np.ptp(state, axis=0) > 0)
-        assert len(varies) == 1, (name, varies)  # one number per system, nothing else moves
-        assert ("speed" in said) == (varies[0] >= 3) and ("stretch" in said) == (varies[0] < 3)
-        drawn = state[:, varies[0]]
-        assert np.all(np.abs(drawn - centre) <= spread) and np.ptp(drawn) > 1.9 * spread, name
-
-
-def test_the_ensemble_lines_read_true_for_one_member_and_just_over_the_limit(capsys, tmp_path):
-    import engine
-    from engine_ensembles import ENSEMBLE_MEMORY, ensemble_bytes, ensemble_most_members, memory_over_limit
-
-    most = ensemble_most_members(2000)
-    needed = ensemble_bytes(2000, most + 1)  # the first count over the limit at 2,000 steps
-    assert needed > ENSEMBLE_MEMORY >= ensemble_bytes(2000, most)
-    shown = memory_over_limit(needed)  # was "1.0 GB, over the 1 GB": a need that read as the limit itself
-    assert shown.endswith(" GB, over the 1 GB") and float(shown.split()[0]) > 1.0
-    assert memory_over_limit(2.04e9) == "2.0 GB, over the 1 GB"
-    assert engine.main(["--ensemble", "1", "--no-rerun", "--out", str(tmp_path)]) == 0
-    out = capsys.readouterr().out
-    assert "1 member stepped together" in out and "holds for 1 of 1 seed\n" in out
-
-
 @pytest.mark.slow
 def test_rk4s_round_off_digits_are_what_exact_arithmetic_says():
     """docs/DEVELOPING.md: RK4's -4.5061e-11 and 5.1299e-11 are -4.5066e-11 and 5.1303e-11 with the same steps in
     50 digits."""
-    from decimal import Decimal, localcontext
-
-    import numpy as np
-
-    import engine
-
     system = engine.build_system("orbit", np.random.default_rng(0))
     with localcontext() as context:
         context.prec = 50
@@ -612,25 +567,7 @@ def test_rk4s_round_off_digits_are_what_exact_arithmetic_says():
     assert f"{drift['rel_final']:.4e}" != f"{exact_final:.4e}" and f"{drift['rel_final']:.2e}" == f"{exact_final:.2e}"
 
 
-def test_the_bounded_intervals_are_closed_except_at_w_2():
-    """docs/damping.md and exercise 6: at an interval's end an eigenvalue has modulus 1 and the run stays bounded
-    (the four end cells of exercise 6's map), except at w = 2, where both eigenvalues are -1 and it grows."""
-    import numpy as np
-
-    from exercises.support import stability_map
-
-    ends = [("euler", 1.0, 1.0), ("euler", 1.0, 2.5), ("semi_implicit", 1.0, 1.5), ("implicit", 3.0, 2.5)]
-    for name, w, c in ends:
-        low, high = stability_map.analytic_interval(name, w)
-        assert c in (low, high)
-        assert stability_map.stays_bounded(name, np.array([w]), np.array([c]), steps=20_000)[0], (name, w, c)
-    for name, c in (("euler", 4.0), ("semi_implicit", 0.0), ("implicit", 0.0)):
-        assert not stability_map.stays_bounded(name, np.array([2.0]), np.array([c]), steps=20_000)[0], (name, c)
-    assert [stability_map.analytic_interval(name, 2.0) for name in ("euler", "semi_implicit")] == [None, None]
-    text = " ".join((REPO / "docs" / "damping.md").read_text().split())
-    assert "every interval is closed" in text and "w² ≤ c ≤ 2 + w²/2" in text
-
-
+@pytest.mark.slow  # each recomputes what a quick test checks (the orders, the damped ladder, the parity)
 @pytest.mark.parametrize("tool, doc", [("orders", "docs/DEVELOPING.md"), ("damped", "docs/damping.md"),
                                        ("parity", "docs/DEVELOPING.md docs/damping.md")])
 def test_the_figures_a_maintainer_prints_by_hand_come_from_tools_and_are_the_docs(tool, doc, tmp_path):
@@ -644,3 +581,97 @@ def test_the_figures_a_maintainer_prints_by_hand_come_from_tools_and_are_the_doc
     pages = "".join((REPO / page).read_text() for page in doc.split())
     figures = [line for line in result.stdout.splitlines() if "orders" in line or "|q_ours" in line]
     assert figures and not [line for line in figures if line not in pages]
+
+
+# --- the students' pages read short, and every exercise answers with a short lesson (issue 25) ---
+# Pages measured as ../shared/tools/prose-metrics measures them: words of prose (outside code blocks, tables and
+# pictures), each paragraph's numerals per sentence, the longest sentence. Each exercise, run as ANSWERS.md runs
+# it but without --more: after its verdict a lesson of at most LESSON_WORDS words, the one ANSWERS.md pastes (so
+# the spoiler test reads it), then the Next line, last.
+
+NUMERAL = r"(?<![\w.])[-+]?\d[\d,]*(?:\.\d+)?(?:e[-+]?\d+)?%?"  # 2,000, 0.032%, 5.1e-11; not RK4, not "four"
+WORD = r"[A-Za-z0-9][\w'.,%/-]*"
+LESSON_WORDS = 120
+
+
+def prose(text: str) -> str:
+    """The page without its code blocks, tables and pictures."""
+    text = re.sub(r"```.*?```", "", text, flags=re.S)
+    return "\n".join(line for line in text.splitlines()
+                     if not line.lstrip().startswith("|") and not line.startswith("!["))
+
+
+def measure(text: str) -> dict:
+    """{words, densest: (numerals per sentence, paragraph), longest: (words, sentence)}, as prose-metrics counts."""
+    text = prose(text)
+    densest, longest = (0.0, ""), (0, "")
+    for paragraph in re.split(r"\n\s*\n", text):
+        if not paragraph.strip() or paragraph.strip().startswith("#"):
+            continue
+        flat = paragraph.replace("\n", " ")
+        sentences = [s for s in re.split(r"(?<=[.!?:])\s+(?=[A-Z(`*])", flat) if len(s.split()) > 3]
+        if not sentences:
+            continue
+        density = len(re.findall(NUMERAL, flat)) / len(sentences)
+        densest = max(densest, (density, flat[:80]))
+        longest = max(longest, *((len(s.split()), s[:80]) for s in sentences))
+    return {"words": len(re.findall(WORD, text)), "densest": densest, "longest": longest}
+
+
+def test_the_measure_counts_as_the_issue_does():
+    page = ("# Title\n\nOne two three four five. The run took 2,000 steps of 0.01 s: RK4 kept 5.1e-11.\n\n"
+            "```bash\npython engine.py --steps 123\n```\n\n| a | 1 |\n|---|---|\n\n![a picture](x.png)\n")
+    measured = measure(page)
+    assert measured["words"] == 1 + 5 + 11  # the heading counts; the code, the table and the picture do not
+    # 3 numerals in 2 sentences: "RK4 kept 5.1e-11." is too short to count as one, and its numeral counts
+    assert measured["densest"][0] == 1.5 and measured["longest"][0] == 8
+
+
+def test_the_measure_is_the_issues_tool_where_it_is_installed():
+    """The course's machines keep the issue's own tool beside the checkout (../shared/tools/prose-metrics)."""
+    tool = REPO.parent / "shared" / "tools" / "prose-metrics"
+    if not tool.is_file():
+        pytest.skip(f"{tool} is not on this machine: test_the_measure_counts_as_the_issue_does stands for it")
+    pages = ["README.md", "exercises/README.md"]
+    said = subprocess.run([sys.executable, str(tool), *pages], cwd=REPO, capture_output=True, text=True,
+                          timeout=60).stdout.splitlines()
+    for page, line in zip(pages, said, strict=True):
+        measured = measure((REPO / page).read_text())
+        assert line == (f"{page}: {measured['words']} words; densest paragraph {measured['densest'][0]:.1f}"
+                        f" numerals/sentence; longest sentence {measured['longest'][0]} words")
+
+
+@pytest.mark.parametrize("page, most_words", [
+    ("README.md", 900),
+    ("exercises/README.md", 800)])
+def test_a_students_page_reads_short(page, most_words):
+    """At most `most_words` words of prose, every paragraph at most 2 numerals a sentence on average, no sentence
+    over 40 words."""
+    measured = measure((REPO / page).read_text())
+    assert measured["words"] <= most_words, f"{page}: {measured['words']} words of prose, over {most_words}"
+    density, paragraph = measured["densest"]
+    assert density <= 2.0, f"{page}: {density:.1f} numerals a sentence in the paragraph {paragraph!r}"
+    words, sentence = measured["longest"]
+    assert words <= 40, f"{page}: a sentence of {words} words: {sentence!r}"
+
+
+@pytest.mark.slow  # each run measures for seconds, as the --more rerun above does
+@pytest.mark.parametrize("command, pasted", answers_with_their_commands())
+def test_each_exercise_answers_with_a_short_lesson_then_the_next_line(command, pasted):
+    """Without --more: the verdict, a lesson of at most LESSON_WORDS words (the same lesson --more starts with,
+    pasted in ANSWERS.md) and the Next line, last. Exercise 2's checker says "All solved." and then Next."""
+    argv = [word for word in shlex.split(command)[1:] if word != "--more"]
+    result = subprocess.run([sys.executable, *argv], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0 and result.stderr == "", result.stderr
+    lines = result.stdout.rstrip("\n").splitlines()
+    assert lines[-1].startswith("Next: "), f"{command}: the run does not end with its Next line"
+    if "check_ex" in command:
+        assert lines[-2] == "All solved.", command
+        return
+    verdict = max(i for i, line in enumerate(lines) if line.startswith(("Right: ", "Not quite: ")))
+    lesson = lines[verdict + 1:-1]
+    words = len(re.findall(WORD, "\n".join(lesson)))
+    assert words <= LESSON_WORDS, f"{command}: a lesson of {words} words, over {LESSON_WORDS}"
+    assert lesson[-1] == predict.MORE and "--more" in command  # where the rest is, and ANSWERS.md pastes the rest
+    shown = "\n".join(lines[: verdict + 1] + lesson[:-1])
+    assert pasted.startswith(shown + "\n"), f"{command}: ANSWERS.md pastes another lesson than the run prints"

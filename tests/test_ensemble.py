@@ -1,6 +1,8 @@
 """Ensembles: --ensemble reports and writes what it says (a member is its single run: tests/test_engine.py)."""
 
+import functools
 import json
+import re
 
 import numpy as np
 import pytest
@@ -30,6 +32,24 @@ def test_ensemble_drift_is_energy_drift_member_by_member_and_the_members_differ(
                      for name in ("orbit", "spring"))
     assert np.ptp(orbit["rel_max"]) > 0.1 * np.median(orbit["rel_max"])
     assert np.ptp(spring["rel_max"]) < 1e-10 * np.median(spring["rel_max"])
+
+
+@pytest.mark.parametrize("system", list(engine.SYSTEMS))
+def test_a_seed_moves_one_number_of_the_start_as_the_ensemble_report_says(system):
+    """Over 1,000 seeds one number of the start moves, nothing else; the report's words for it (SEED_CHANGES: "the
+    orbit's starting speed, 1 +- 0.05", jittered()'s for a system without words) name it and its range."""
+    assert set(ensembles.SEED_CHANGES) <= set(engine.SYSTEMS)
+    starts = [engine.build_system(system, np.random.default_rng(seed)) for seed in range(1000)]
+    state = np.array([np.concatenate([s["q0"], s["v0"]]) for s in starts])  # (seeds, q0 then v0)
+    (varies,) = np.flatnonzero(np.ptp(state, axis=0) > 0)  # one number per system: the seed moves nothing else
+    named = ensembles.jittered(functools.partial(engine.build_system, system))
+    assert named == f"the start's {('q0', 'v0')[varies // 3]}'s {'xyz'[varies % 3]}"
+    if system in ensembles.SEED_CHANGES:
+        said = ensembles.SEED_CHANGES[system]
+        centre, spread = map(float, re.search(r"([\d.]+) \+- ([\d.]+)", said).groups())
+        assert ("speed" in said) == (varies >= 3) and ("stretch" in said) == (varies < 3)
+        drawn = state[:, varies]
+        assert np.all(np.abs(drawn - centre) <= spread) and np.ptp(drawn) > 1.9 * spread, system
 
 
 def test_ordering_count_names_the_seeds_where_it_fails():
@@ -85,9 +105,11 @@ def test_the_ensemble_says_which_members_it_cannot_judge_and_why(args, block, sa
     assert all(phrase in out for phrase in said) and not any(phrase in out for phrase in unsaid), out
 
 
-def test_memory_estimate_refuses_what_would_not_fit():
-    """(A refused --ensemble is one line, exit 2, nothing touched: tests/test_cli.py's bad flags.)"""
-    assert ensembles.ensemble_bytes(2000, 10_000) < ensembles.ENSEMBLE_MEMORY  # the issue's 10,000 orbits fit
-    assert ensembles.ensemble_bytes(2000, 100_000) > ensembles.ENSEMBLE_MEMORY
-    assert ensembles.ensemble_bytes(SMOKE := engine.SMOKE_STEPS, 100_000) < ensembles.ensemble_bytes(2000, 100_000)
-    assert SMOKE == 600
+def test_the_ensemble_lines_read_true_for_one_member_and_just_over_the_limit(capsys, tmp_path):
+    needed = ensembles.ensemble_bytes(2000, ensembles.ensemble_most_members(2000) + 1)  # the first over, at 2,000 steps
+    shown = ensembles.memory_over_limit(needed)  # was "1.0 GB, over the 1 GB": a need that read as the limit itself
+    assert shown.endswith(" GB, over the 1 GB") and float(shown.split()[0]) > 1.0
+    assert ensembles.memory_over_limit(2.04e9) == "2.0 GB, over the 1 GB"
+    assert engine.main(["--ensemble", "1", "--no-rerun", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "1 member stepped together" in out and "holds for 1 of 1 seed\n" in out

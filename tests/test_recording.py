@@ -43,11 +43,6 @@ def read_recording(path):
     return recording, entities, settings
 
 
-def read_bytes(data, tmp_path):
-    (tmp_path / "made.rrd").write_bytes(data)
-    return read_recording(tmp_path / "made.rrd")
-
-
 def column(batches, name):
     """A column's values over all the entity's chunks, in step order."""
     rows = [row for batch in batches if name in batch.schema.names for row in batch.column(name).to_pylist()]
@@ -58,6 +53,20 @@ def column(batches, name):
 def opens_on(last_step):
     """A plot's time range: step 0 to the last, and course.END_ROOM past it, so the viewer labels the last step."""
     return {"start": 0, "end": last_step + int(np.ceil(course.END_ROOM * last_step))}
+
+
+def assert_opens_the_courses_way(settings, last_step):
+    """course.opening: every plot over the whole run, the side panels folded, the cursor on the step timeline
+    following to the last step."""
+    for (kind, origin), props in views_of(settings).items():
+        if kind == "TimeSeries":
+            assert props["TimeAxis:view_range"] == opens_on(last_step), f"{origin} opens on the whole run"
+    for panel in ("/blueprint_panel", "/selection_panel"):
+        assert settings[panel]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
+    time_panel = settings["/time_panel"]
+    assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
+    assert time_panel["TimePanelBlueprint:timeline"] == "step"
+    assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
 
 
 def views_of(settings):
@@ -149,22 +158,16 @@ def test_each_system_opens_on_its_own_views_and_every_plot_on_the_whole_run(reco
         assert set(views) == EXPECTED_VIEWS[system_name], "the views this system's lesson needs, and no others"
     else:  # a system declared later, before anyone chose its views: the default ones
         assert ("TimeSeries", "energy_error") in views, views
+    assert_opens_the_courses_way(settings, STEPS)
     for (kind, origin), props in views.items():
         if kind != "TimeSeries":
             continue
-        assert props["TimeAxis:view_range"] == opens_on(STEPS), f"{origin} opens on all the steps"
         low, high = props["ScalarAxis:range"]
         values = np.concatenate([np.ravel(column(batches, "Scalars:scalars"))
                                  for path, batches in entities.items() if path.startswith(f"/{origin}/")])
         assert low < values.min() and values.max() < high, f"{origin}: every value on screen"
         assert props["PlotInteraction:tooltip_mode"] == rrb.components.TooltipMode.All.value
-    for panel in ("/blueprint_panel", "/selection_panel"):
-        assert settings[panel]["PanelBlueprint:state"] == rrb.components.PanelState.Hidden.value
-    time_panel = settings["/time_panel"]
-    assert time_panel["TimePanelBlueprint:state"] == rrb.components.PanelState.Collapsed.value
-    assert time_panel["TimePanelBlueprint:timeline"] == "step"
-    assert time_panel["TimePanelBlueprint:play_state"] == rrb.components.PlayState.Following.value
-    assert time_panel["TimePanelBlueprint:fps"] * course.PLAYBACK_SECONDS == pytest.approx(STEPS)
+    assert settings["/time_panel"]["TimePanelBlueprint:fps"] * course.PLAYBACK_SECONDS == pytest.approx(STEPS)
 
 
 @pytest.mark.parametrize("system_name", SPATIAL)
@@ -225,9 +228,7 @@ def test_long_runs_are_thinned_in_the_recording(tmp_path, capsys, monkeypatch):
     assert len(logged_steps) <= engine.MAX_POINTS_PER_SERIES + 1
     assert logged_steps[0] <= 3 and logged_steps[-1] == steps
     assert column(entities["/orbit/euler/body"], "step") == engine.kept_steps(steps, 3).tolist()
-    for (kind, origin), props in views_of(settings).items():
-        if kind == "TimeSeries":
-            assert props["TimeAxis:view_range"] == opens_on(steps), f"{origin} opens on the whole run"
+    assert_opens_the_courses_way(settings, steps)
 
 
 def test_a_new_system_or_integrator_records_before_anyone_writes_it_a_view_or_a_colour(tmp_path):
@@ -243,7 +244,8 @@ def test_a_new_system_or_integrator_records_before_anyone_writes_it_a_view_or_a_
     runs = {name: engine.simulate(step, system, DT, 100) for name, step in engine.integrators_for(system).items()}
     runs["verlet"] = runs["rk4"]
     data, _ = engine_recording.record(system, runs, engine.kept_steps(100), DT, run_id="new")
-    _, entities, settings = read_bytes(data, tmp_path)
+    (tmp_path / "made.rrd").write_bytes(data)
+    _, entities, settings = read_recording(tmp_path / "made.rrd")
     assert set(views_of(settings)) == {("3D", "paths"), ("TimeSeries", "energy_error")}
     colours = {name: column(entities[f"/paths/{name}/trail"], "LineStrips3D:colors")[0][0] for name in runs}
     assert len(set(colours.values())) == len(runs), "every integrator its own colour"
@@ -303,11 +305,13 @@ def test_the_courses_recording_api_opens_any_time_series_the_same_way(tmp_path):
             views.append(course.time_series(system, f"{system}: (E - E0) / |E0|", steps[-1], logged))
         return course.opening(rrb.Vertical(*views), steps[-1])
 
-    recording, entities, settings = read_bytes(course.recorded("zero2robot-test", fill), tmp_path)
+    (tmp_path / "made.rrd").write_bytes(course.recorded("zero2robot-test", fill))
+    recording, entities, settings = read_recording(tmp_path / "made.rrd")
     views = views_of(settings)
     assert recording.application_id == "zero2robot-test" and set(views) == {("TimeSeries", "orbit"),
                                                                            ("TimeSeries", "spring")}
     assert views[("TimeSeries", "orbit")]["TimeAxis:view_range"] == {"start": 0, "end": 312}, "4% past the end"
+    assert_opens_the_courses_way(settings, 300)
     low, high = views[("TimeSeries", "orbit")]["ScalarAxis:range"]
     assert low < -0.99 and high > 0.99, "fitted to every value logged"
     assert column(entities["/orbit/verlet"], "SeriesLines:names")[0] == ["verlet"]
@@ -361,7 +365,8 @@ def key_labels(entities, origin, names):
     return {name: label_of[packed(look.colour)] for name, look in course.looks(names).items()}
 
 
-@pytest.mark.parametrize("case", [*LISTED, *EDGES])
+@pytest.mark.parametrize("case", [pytest.param(case, marks=pytest.mark.slow if case == "ensemble of 1000" else ())
+                                  for case in [*LISTED, *EDGES]])
 def test_every_recording_frames_what_stays_bounded_and_shows_every_integrator(case, tmp_path):
     """Issue 24, from what each recording holds: every spatial view's camera frames the exact motion (or the runs
     that stay bounded), and the exact motion fills a good part of it (not a dot in a corner, not off the edge);

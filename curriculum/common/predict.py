@@ -8,7 +8,7 @@
 `ask` adds --predict, --because and --more; it records the prediction in the journal before it returns. The
 answers (`OneOf`, `Number`, `PerName`, `SomeOf`) are read as people type them, in time linear in the text; one
 that does not parse gets one line listing the accepted forms (`.forms`). The lesson is at most 120 words
-(tests/test_prose.py counts). Keep measured answers out of the docstring, --help and the question:
+(tests/test_docs.py counts). Keep measured answers out of the docstring, --help and the question:
 tests/test_docs.py reads them for leaks.
 """
 
