@@ -4,7 +4,6 @@ line (exit 2, nothing touched), what was typed coming back escaped and short, a 
 import importlib
 import os
 import re
-import shlex
 import subprocess
 import sys
 
@@ -99,25 +98,6 @@ def test_no_rerun_never_imports_rerun(tmp_path):
             "print('rerun imported:', any(m.split('.')[0] == 'rerun' for m in sys.modules))")
     result = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, cwd=REPO)
     assert result.returncode == 0 and result.stdout.strip().endswith("rerun imported: False")
-
-
-def readme_commands():
-    """Every `python ...` line inside the README's code blocks, comment stripped."""
-    text = (REPO / "README.md").read_text()
-    blocks = re.findall(r"```bash\n(.*?)```", text, flags=re.S)
-    lines = [line.split("#")[0].strip() for block in blocks for line in block.splitlines()]
-    return [line.split("&&")[-1].strip() for line in lines if "python " in line]
-
-
-@pytest.mark.slow
-def test_readme_engine_commands_run_as_written(tmp_path):
-    """(The bare `python engine.py` is the default run's test, above.)"""
-    commands = [c for c in readme_commands() if c.startswith("python engine.py") and c != "python engine.py"]
-    assert len(commands) >= 5
-    for command in commands:
-        result = run_engine(*shlex.split(command)[2:], cwd=tmp_path)  # run from a fresh folder: outputs/ lands there
-        assert result.returncode == 0, f"{command}: {result.stderr}"
-        assert result.stderr == "", command
 
 
 def test_readme_links_point_at_files_that_exist():
