@@ -178,15 +178,19 @@ def append(make, kept: str | None = None) -> dict | None:
 
 
 def checked(default: Path, path: Path, parts: dict) -> None:
-    """The checker's record of one check, then its last line: the board's Next line once solved, else itself."""
+    """The checker's record of one check, then its last line: the board's Next line once the exercise's own file is
+    solved; a solved scratch file is to be copied there; else the check again."""
     number = int(exercise.EXERCISE_FILE.fullmatch(default.name).group(1))
     digest = hashlib.sha256(own_file(Path(path)) or b"").hexdigest()
-    append(lambda book: {"kind": "check", "ex": number, "solved": bool(parts) and all(parts.values()),
-                         "parts": parts, "sha256": digest, "own": Path(path).resolve() == Path(default).resolve()})
+    solved, own = bool(parts) and all(parts.values()), Path(path).resolve() == Path(default).resolve()
+    append(lambda book: {"kind": "check", "ex": number, "solved": solved, "parts": parts, "sha256": digest, "own": own})
     if interrupts.active():
         file = "" if Path(path) == Path(default) else f" {cli.shown(path, 100)}"
-        again = f"Next: python -m exercises.check_ex{number}{file}"
-        print(next_line(number) if parts and all(parts.values()) else again)
+        if solved and not own:
+            print(f"Next: copy it to exercises/{default.name}, the file the board and the grade read, then python -m"
+                  f" exercises.check_ex{number}")
+        else:
+            print(next_line(number) if solved else f"Next: python -m exercises.check_ex{number}{file}")
 
 
 def next_line(number: int | None, book=None, found=None) -> str:
