@@ -353,7 +353,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                              " 250 does at dt 0.01")
     parser.add_argument("--dt", type=positive_finite("the timestep --dt"), default=0.01,
                         help="timestep in sim seconds, positive, short enough that --steps of it fit in a float"
-                             " (default 0.01); raise it and every drift grows, but round-off (RK4's on the freefall)")
+                             " (default 0.01); raise it and every drift grows except round-off (RK4's on the freefall)")
     parser.add_argument("--steps", type=int_in(1, MAX_STEPS, "--steps"), default=None,
                         help=f"steps per integrator, 1 to {MAX_STEPS:,} (default {DEFAULT_STEPS:,})")
     parser.add_argument("--smoke", action="store_true",
