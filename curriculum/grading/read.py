@@ -4,6 +4,7 @@ is a submission with a flag, never dropped. Nothing is extracted; no link is fol
 
 import bz2
 import csv
+import functools
 import gzip
 import lzma
 import os
@@ -51,7 +52,7 @@ def submissions(path: Path, wanted: list, out: Path) -> tuple[dict, list]:
             os.stat(path)  # FileNotFoundError says so
             raise ValueError(f"{shown(path, 100)} is neither a folder nor an archive (.zip, .tar, .tar.gz ...)")
         return {roster_id(path.name): _read(path, wanted)}, []
-    if _holds(path, wanted):
+    if any(os.path.lexists(path / place) for place in ["exercises", *wanted]):
         return {roster_id(path.resolve().name): _read(path, wanted)}, []
     found, skipped, named = {}, [], {}
     for entry in sorted(os.scandir(path), key=lambda entry: entry.name):
@@ -69,17 +70,21 @@ def submissions(path: Path, wanted: list, out: Path) -> tuple[dict, list]:
     return found, skipped
 
 
-def _holds(folder: Path, wanted: list) -> bool:
-    return any(os.path.lexists(folder / place) for place in ["exercises", *wanted])
-
-
 def _read(path: Path, wanted: list) -> dict:
     """{name: bytes or None} for each wanted name at exercises/NAME or NAME, under one top folder too (GitHub's)."""
     try:
         if not path.is_dir() and path.stat().st_size > MAX_UPLOAD:
             raise Refused(f"{shown(path.name)} is over {MAX_UPLOAD // 1_000_000} MB: refused")
-        reader = _folder if path.is_dir() else _zip if zipfile.is_zipfile(path) else _tar
-        return _pick(*reader(path, wanted), wanted) | {"problem": None}
+        members, names = {}, []
+        for name, size, content in _folder(path) if path.is_dir() else _zip(path) if zipfile.is_zipfile(path) \
+                else _tar(path):
+            names.append(name)
+            if name.rpartition("/")[2] in wanted:
+                if size > journal.MAX_BYTES:
+                    raise Refused(f"{shown(name)} is over {journal.MAX_BYTES // 1_000_000} MB, more than a hand-in"
+                                  " holds: refused")
+                members[name] = content()
+        return _pick(members, names, wanted) | {"problem": None}
     except Refused as refused:
         return dict.fromkeys(wanted) | {"problem": str(refused)}
     except Exception as error:  # noqa: BLE001 (one hand-in's damage, whatever its kind, is its flag; the class goes on)
@@ -87,21 +92,25 @@ def _read(path: Path, wanted: list) -> dict:
                                                    f" or a tar: {type(error).__name__})"}
 
 
-def _zip(path: Path, wanted: list) -> tuple[dict, list]:
-    members, names = {}, []
+def _folder(path: Path):
+    """(name, size, its content) of each file to exercises/NAME in a folder (under one top folder too); no link."""
+    for top, folders, files in os.walk(path):  # a link to a folder is never entered
+        folders[:] = [f for f in folders if len(Path(top, f).relative_to(path).parts) <= 2]  # top/exercises/NAME
+        for file in (Path(top, name) for name in files):
+            if file.is_file() and not file.is_symlink():  # no FIFO, device or link
+                yield str(file.relative_to(path)), file.stat().st_size, file.read_bytes
+
+
+def _zip(path: Path):
+    """The same for a zip, whose reader stops at a member's declared size."""
     with zipfile.ZipFile(path) as bundle:
         for info in bundle.infolist():
             if not info.is_dir() and not stat.S_ISLNK(info.external_attr >> 16):
-                names.append(info.filename)
-                if info.filename.rpartition("/")[2] in wanted and _bounded(info.filename, info.file_size):
-                    with bundle.open(info) as member:
-                        data = member.read(journal.MAX_BYTES + 1)
-                    members[info.filename] = data if _bounded(info.filename, len(data)) else None
-    return members, names
+                yield info.filename, info.file_size, functools.partial(bundle.read, info)
 
 
-def _tar(path: Path, wanted: list) -> tuple[dict, list]:
-    members, names = {}, []
+def _tar(path: Path):
+    """The same for a tar, compressed or not, read as a stream of at most MAX_UNPACKED bytes."""
     with open(path, "rb") as raw:
         start = raw.read(6)
         raw.seek(0)
@@ -110,10 +119,7 @@ def _tar(path: Path, wanted: list) -> tuple[dict, list]:
         with tarfile.open(fileobj=_Capped(opener(raw) if opener else raw), mode="r|") as bundle:
             for member in bundle:
                 if member.isfile():  # no links, devices or folders
-                    names.append(member.name)
-                    if member.name.rpartition("/")[2] in wanted and _bounded(member.name, member.size):
-                        members[member.name] = bundle.extractfile(member).read()
-    return members, names
+                    yield member.name, member.size, lambda member=member: bundle.extractfile(member).read()
 
 
 class _Capped:  # a file that refuses to give more than MAX_UNPACKED bytes in all, before it reads them
@@ -128,35 +134,9 @@ class _Capped:  # a file that refuses to give more than MAX_UNPACKED bytes in al
         return data
 
 
-def _bounded(name: str, size: int) -> bool:
-    if size > journal.MAX_BYTES:
-        raise Refused(f"{shown(name)} is over {journal.MAX_BYTES // 1_000_000} MB, more than a hand-in holds: refused")
-    return True
-
-
 def _pick(members: dict, names: list, wanted: list) -> dict:
     parts = {name: name.split("/") for name in names if not name.startswith("/") and ".." not in name.split("/")}
     tops = {p[0] for p in parts.values() if len(p) > 1}
     top = [tops.pop()] if len(tops) == 1 and all(len(p) > 1 for p in parts.values()) else []
     return {want: next((members.get(n) for n, p in parts.items() if p in ([*top, "exercises", want], [*top, want])),
                        None) for want in wanted}
-
-
-def _folder(path: Path, wanted: list) -> tuple[dict, list]:
-    members, names = {}, []
-    for top, folders, files in os.walk(path):  # a link to a folder is never entered
-        folders[:] = [f for f in folders if len(Path(top, f).relative_to(path).parts) <= 2]  # top/exercises/NAME
-        for name in files:
-            names.append(str(Path(top, name).relative_to(path)))
-            members[names[-1]] = _file(Path(top, name)) if name in wanted else None
-    return members, names
-
-
-def _file(path: Path) -> bytes | None:
-    """A regular file, never through a link, at most journal.MAX_BYTES (past it: refused)."""
-    try:
-        with open(os.open(path, os.O_RDONLY | os.O_NONBLOCK | journal.NOFOLLOW), "rb") as file:
-            data = file.read(journal.MAX_BYTES + 1) if stat.S_ISREG(os.fstat(file.fileno()).st_mode) else None
-    except OSError:
-        return None
-    return data if data is None or _bounded(path.name, len(data)) else None
