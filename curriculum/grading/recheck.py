@@ -4,7 +4,6 @@ root and can. Back comes the verdict: never what the code printed, nor an error'
 
 import contextlib
 import functools
-import hashlib
 import json
 import os
 import pwd
@@ -29,25 +28,13 @@ print("\\nVERDICT " + json.dumps({{"parts": parts, "messages": messages}}))
 """
 
 
+@functools.cache
 def check(module: str, data: bytes | None) -> tuple[bool, str]:
-    """(solved, what the checker said) for a handed-in file; the same bytes give the same verdict (cached)."""
+    """(solved, what the checker said) for a handed-in file; the same bytes give the same verdict, checked once."""
     if data is None:
         return False, f"no {module}.py handed in"
     if data == (EXERCISES / "support" / "pristine" / f"{module}.py").read_bytes():
         return False, "the untouched stub"
-    return _check(module, hashlib.sha256(data).hexdigest(), data)
-
-
-@functools.cache
-def snapshot() -> dict:
-    """{path: bytes} of what a checker needs, read once before any student's code runs."""
-    return {str(path.relative_to(COURSE)): path.read_bytes() for pattern in NEEDED for part in COURSE.glob(pattern)
-            for path in ([part] if part.is_file() else sorted(part.rglob("*.py")) + sorted(part.rglob("*.md")))
-            if "__pycache__" not in path.parts and ".before-reset-" not in path.name}
-
-
-@functools.cache
-def _check(module: str, _digest: str, data: bytes) -> tuple[bool, str]:
     user = unprivileged()
     with tempfile.TemporaryDirectory(prefix="grading-") as scratch:
         root = Path(scratch)
@@ -83,6 +70,14 @@ def _check(module: str, _digest: str, data: bytes) -> tuple[bool, str]:
         return False, "the checker could not finish on this file here (it ran past its time or ended Python)"
     solved = bool(parts) and all(v is True for v in parts.values())
     return solved, "solved, checked again here" if solved else " ".join(messages)[:2000]
+
+
+@functools.cache
+def snapshot() -> dict:
+    """{path: bytes} of what a checker needs, read once before any student's code runs."""
+    return {str(path.relative_to(COURSE)): path.read_bytes() for pattern in NEEDED for part in COURSE.glob(pattern)
+            for path in ([part] if part.is_file() else sorted(part.rglob("*.py")) + sorted(part.rglob("*.md")))
+            if "__pycache__" not in path.parts and ".before-reset-" not in path.name}
 
 
 @functools.cache
