@@ -55,7 +55,10 @@ def main(argv) -> int:
     except (OSError, ValueError) as error:
         parser.error(f"--grade: {error.strerror if isinstance(error, OSError) else error}")
     if args.format != "csv":  # one platform run: a bad upload still gets its results file, with 0 and why
-        graded = score.one(submissions, skipped, found, args.due)
+        upload = ", ".join(sorted([*submissions, *(name for name, _ in skipped)])) or "nothing"
+        graded = score.grade(submissions, found, args.due) if len(submissions) == 1 else {"upload": score.missing(
+            "upload", found, f"Upload the one zip `python -m exercises --handin` writes (outputs/handin.zip); this"
+                             f" upload holds {upload}.")}
         write_atomic(args.out / FILES[args.format][0], platform(args.format, graded, len(found)))
         print_class(graded, skipped, found, args.out / FILES[args.format][0])
         return 0

@@ -50,26 +50,16 @@ def grade(submissions: dict, found: list, due) -> dict:
     titles, known, graded = exercise.titles(EXERCISES), truths(), {}
     for name, files in submissions.items():
         data = files["journal.jsonl"]
-        book = journal.read(data) if data is not None and len(data) <= journal.MAX_BYTES else None
+        book = journal.read(data) if data is not None else None  # None: no journal (one over 4 MB is refused)
         rows = [_row(name, book, files, titles, known, due, *item) for item in found]
         late = [str(r["exercise"]) for r in rows if r["flag"] == "late"]
-        flags = [files["problem"], None if book or files["problem"] else "no journal" if data is None else
-                 f"a journal over {journal.MAX_BYTES // 1_000_000} MB: not read", *(book.notes() if book else []),
+        flags = [files["problem"] or not book and "no journal", *(book.notes() if book else []),
                  *(f"exercise {r['exercise']}: {r['flag']}" for r in rows if r["flag"] and r["flag"] != "late"),
                  late and f"late: the first prediction of exercise {', '.join(late)} came after --due"]
         graded[name] = {"rows": rows, "book": book, "flags": [f for f in flags if f],
                         "points": sum(r["points"] for r in rows)}
     _copies(graded)
     return graded
-
-
-def one(submissions: dict, skipped: list, found: list, due) -> dict:
-    """A platform's one submission, graded; for an upload that is not one, 0 and what to upload."""
-    if len(submissions) == 1:
-        return grade(submissions, found, due)
-    upload = ", ".join(sorted([*submissions, *(name for name, _ in skipped)])) or "nothing"
-    return {"upload": missing("upload", found, f"Upload the one zip `python -m exercises --handin` writes"
-                                                f" (outputs/handin.zip); this upload holds {upload}.")}
 
 
 def missing(name: str, found: list, why: str = "no submission") -> dict:
@@ -89,10 +79,10 @@ def _row(student, book, files, titles, known, due, number, module, kind) -> dict
     if kind == "code":
         data = files[f"{module}.py"]
         solved, detail = recheck.check(module, data)
-        copy = data is not None and data == (SOLUTIONS / f"{module}.py").read_bytes()
-        checks = [r for r in mine if r["kind"] == "check" and r["own"]]
-        return row | {"attempts": len(checks), "solved": "yes" if solved else "no", "points": int(solved),
-                      "detail": detail, "flag": "the file is the course's solution, byte for byte" if copy else ""}
+        copy = data == (SOLUTIONS / f"{module}.py").read_bytes()
+        return row | {"attempts": sum(r["kind"] == "check" and r["own"] for r in mine), "points": int(solved),
+                      "solved": "yes" if solved else "no", "detail": detail,
+                      "flag": "the file is the course's solution, byte for byte" if copy else ""}
     predictions = [r for r in mine if r["kind"] == "predict"]
     if not predictions:
         return row | {"detail": "no prediction recorded"}
