@@ -59,32 +59,26 @@ def main(argv) -> int:
         graded = score.grade(submissions, found, args.due) if len(submissions) == 1 else {"upload": score.missing(
             "upload", found, f"Upload the one zip `python -m exercises --handin` writes (outputs/handin.zip); this"
                              f" upload holds {upload}.")}
-        write_atomic(args.out / FILES[args.format][0], platform(args.format, graded, len(found)))
-        print_class(graded, skipped, found, args.out / FILES[args.format][0])
-        return 0
-    if not submissions and not roster:
-        parser.error(f"--grade: {shown(args.grade, 100)} holds no submission (a folder, a zip or a tar)")
-    graded = score.grade(submissions, found, args.due)
-    for name in sorted(set(roster or []) - set(graded)):
-        graded[name] = score.missing(name, found)
-    for name in sorted(set(graded) - set(roster or graded)):
-        graded[name]["flags"].append("not on the roster")
-    summary = score.summary(graded, found)
-    files = dict(zip(FILES["csv"], (grades(graded), gradebook(graded, len(found)), summary), strict=True))
+        files, summary = {FILES[args.format][0]: platform(args.format, graded, len(found))}, ""
+    else:
+        if not submissions and not roster:
+            parser.error(f"--grade: {shown(args.grade, 100)} holds no submission (a folder, a zip or a tar)")
+        graded = score.grade(submissions, found, args.due)
+        for name in sorted(set(roster or []) - set(graded)):
+            graded[name] = score.missing(name, found)
+        for name in sorted(set(graded) - set(roster or graded)):
+            graded[name]["flags"].append("not on the roster")
+        summary = score.summary(graded, found)
+        files = dict(zip(FILES["csv"], (grades(graded), gradebook(graded, len(found)), summary), strict=True))
     for name, data in files.items():
         write_atomic(args.out / name, data)
-    print_class(graded, skipped, found, *(args.out / name for name in files))
-    print(summary, end="")
-    return 0
-
-
-def print_class(graded: dict, skipped: list, found: list, *written: Path) -> None:
-    print(f"{len(graded)} student(s), {len(found)} points each: {', '.join(shown(p, 100) for p in written)}")
+    print(f"{len(graded)} student(s), {len(found)} points each: {', '.join(shown(args.out / f, 100) for f in files)}")
     for name, result in graded.items():
         print(f"  {shown(name, 30):<30}{result['points']:>3}  {shown('; '.join(result['flags']), 500)}")
     for name, why in skipped:
         print(f"  skipped {shown(name, 60)}: {why}")
-    print(score.POINT, flush=True)
+    print(score.POINT, summary, sep="\n", end="", flush=True)
+    return 0
 
 
 # --- what it writes: every CSV cell spreadsheet-safe ---
