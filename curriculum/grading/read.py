@@ -8,7 +8,6 @@ import functools
 import gzip
 import lzma
 import os
-import re
 import stat
 import tarfile
 import unicodedata
@@ -29,7 +28,7 @@ class Refused(Exception):
 
 def roster_id(name: str) -> str:
     """A student's id from a file name: its archive suffix off, Unicode NFC (macOS writes NFD), bad bytes U+FFFD."""
-    name = re.sub(r"\.(zip|tgz|tar|tar\.gz|tar\.bz2|tar\.xz)$", "", name, flags=re.I)
+    name = next((name[:-len(suffix)] for suffix in ARCHIVES if name.lower().endswith(suffix)), name)
     return unicodedata.normalize("NFC", name.encode("utf-8", "surrogateescape").decode("utf-8", "replace"))
 
 
@@ -110,16 +109,12 @@ def _zip(path: Path):
 
 
 def _tar(path: Path):
-    """The same for a tar, compressed or not, read as a stream of at most MAX_UNPACKED bytes."""
-    with open(path, "rb") as raw:
-        start = raw.read(6)
-        raw.seek(0)
-        opener = next((o for magic, o in ((b"\x1f\x8b", gzip.open), (b"BZh", bz2.open), (b"\xfd7zXZ", lzma.open))
-                       if start.startswith(magic)), None)
-        with tarfile.open(fileobj=_Capped(opener(raw) if opener else raw), mode="r|") as bundle:
-            for member in bundle:
-                if member.isfile():  # no links, devices or folders
-                    yield member.name, member.size, lambda member=member: bundle.extractfile(member).read()
+    """The same for a tar, compressed as its name says or not, read as a stream of at most MAX_UNPACKED bytes."""
+    opener = {".gz": gzip.open, ".tgz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}.get(path.suffix.lower(), open)
+    with opener(path, "rb") as raw, tarfile.open(fileobj=_Capped(raw), mode="r|") as bundle:
+        for member in bundle:
+            if member.isfile():  # no links, devices or folders
+                yield member.name, member.size, lambda member=member: bundle.extractfile(member).read()
 
 
 class _Capped:  # a file that refuses to give more than MAX_UNPACKED bytes in all, before it reads them
