@@ -86,8 +86,6 @@ def main(argv) -> int:
 
 def cell(value):
     """As text in any spreadsheet: controls (line ends too) a space, lone surrogates U+FFFD, a formula start '-led."""
-    if isinstance(value, int):
-        return value
     text = CONTROL.sub(" ", str(value)).encode("utf-8", "replace").decode()
     return f"'{text}" if text.lstrip().startswith(FORMULA) else text
 
