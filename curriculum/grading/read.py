@@ -1,11 +1,12 @@
 """Reading hand-ins, bounded whatever is uploaded: an archive over MAX_UPLOAD, a member over journal.MAX_BYTES or
-a tar unpacking past MAX_UNPACKED (its pax header too) is refused with a flag; a truncated or unrecognised archive
-is a submission with a flag, never dropped. Nothing is extracted; no link is followed, in a folder or an archive."""
+a tar unpacking past MAX_UNPACKED is refused with a flag; a truncated or unrecognised archive is a submission with a
+flag, never dropped. Nothing is extracted; no link is followed, in a folder or an archive."""
 
 import bz2
 import csv
 import functools
 import gzip
+import io
 import lzma
 import os
 import stat
@@ -109,24 +110,17 @@ def _zip(path: Path):
 
 
 def _tar(path: Path):
-    """The same for a tar, compressed as its name says or not, read as a stream of at most MAX_UNPACKED bytes."""
+    """The same for a tar, compressed as its name says or not, unpacked in memory up to MAX_UNPACKED bytes: a header
+    (a pax one too) that declares more than that finds the end of the data, never more memory."""
     opener = {".gz": gzip.open, ".tgz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}.get(path.suffix.lower(), open)
-    with opener(path, "rb") as raw, tarfile.open(fileobj=_Capped(raw), mode="r|") as bundle:
+    with opener(path, "rb") as raw:
+        data = raw.read(MAX_UNPACKED + 1)
+    if len(data) > MAX_UNPACKED:
+        raise Refused(f"it unpacks to more than {MAX_UNPACKED // 1_000_000} MB: refused")
+    with tarfile.open(fileobj=io.BytesIO(data), mode="r:") as bundle:
         for member in bundle:
             if member.isfile():  # no links, devices or folders
                 yield member.name, member.size, lambda member=member: bundle.extractfile(member).read()
-
-
-class _Capped:  # a file that refuses to give more than MAX_UNPACKED bytes in all, before it reads them
-    def __init__(self, file):
-        self.file, self.given = file, 0
-
-    def read(self, size=-1):
-        if size < 0 or self.given + size > MAX_UNPACKED:
-            raise Refused(f"it unpacks to more than {MAX_UNPACKED // 1_000_000} MB (or a header says so): refused")
-        data = self.file.read(size)
-        self.given += len(data)
-        return data
 
 
 def _pick(members: dict, names: list, wanted: list) -> dict:

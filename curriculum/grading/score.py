@@ -2,7 +2,6 @@
 prediction (resets included), `right` recomputed from the stored answer against ANSWERS.md's graded answer."""
 
 import collections
-import contextlib
 import datetime
 import re
 
@@ -88,7 +87,11 @@ def _row(student, book, files, titles, known, due, number, module, kind) -> dict
         return row | {"detail": "no prediction recorded"}
     first = predictions[0]
     score = marked(first["answer"], known.get(number))
-    moment = _utc(first["t"])
+    try:
+        moment = datetime.datetime.fromisoformat(first["t"])
+        moment = (moment if moment.tzinfo else moment.replace(tzinfo=datetime.UTC)).astimezone(datetime.UTC)
+    except ValueError:  # a hand-written time: shown as written, never late
+        moment = None
     late = due and moment and moment > due
     row |= {"question": first["question"], "first_prediction": said(first["answer"]), "reason": first["because"],
             "first_time_utc": moment.isoformat() if moment else first["t"], "points": 1,
@@ -98,12 +101,6 @@ def _row(student, book, files, titles, known, due, number, module, kind) -> dict
     row["detail"] = (f"first prediction {row['first_time_utc']}: {row['first_prediction']}"
                      + (f" ({score[0]} of {score[1]} right)" if score else "") + f"; {row['attempts']} attempt(s)")
     return row
-
-
-def _utc(stamp: str):
-    with contextlib.suppress(ValueError):
-        moment = datetime.datetime.fromisoformat(stamp)
-        return (moment if moment.tzinfo else moment.replace(tzinfo=datetime.UTC)).astimezone(datetime.UTC)
 
 
 def _copies(graded: dict) -> None:
