@@ -21,9 +21,7 @@ from curriculum.common.exercise import EXERCISES
 from curriculum.common.outputs import folder_problem, write_atomic
 from curriculum.grading import read, recheck, score
 
-CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]+")
 FORMULA = ("=", "+", "-", "@")
-GRADE_ITEM = "Chapter 3.3 exercises"
 FILES = {"csv": ["grades.csv", "gradebook.csv", "summary.txt"], "gradescope": ["results.json"],
          "classroom": ["classroom.json"]}
 
@@ -43,8 +41,7 @@ def main(argv) -> int:
     if not args.grade.strip():
         parser.error("--grade: the path is empty: give the folder or archive to grade")
     args.grade = Path(args.grade)
-    problem = folder_problem(args.out, FILES[args.format])
-    if problem:
+    if problem := folder_problem(args.out, FILES[args.format]):
         parser.error(f"--out: {problem}")
     found = exercise.exercises(EXERCISES)
     recheck.snapshot()  # the checker's files, read before any student's code runs
@@ -86,7 +83,7 @@ def main(argv) -> int:
 
 def cell(value):
     """As text in any spreadsheet: controls (line ends too) a space, lone surrogates U+FFFD, a formula start '-led."""
-    text = CONTROL.sub(" ", str(value)).encode("utf-8", "replace").decode()
+    text = re.sub(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]+", " ", str(value)).encode("utf-8", "replace").decode()
     return f"'{text}" if text.lstrip().startswith(FORMULA) else text
 
 
@@ -106,7 +103,7 @@ def grades(graded: dict) -> str:
 
 def gradebook(graded: dict, possible: int) -> str:
     """One row per student, as Canvas's and Moodle's gradebook imports take it (docs/TEACHING.md)."""
-    return _table(["Student", "SIS Login ID", "Section", GRADE_ITEM, "Points Possible", "Flags"],
+    return _table(["Student", "SIS Login ID", "Section", "Chapter 3.3 exercises", "Points Possible", "Flags"],
                   [[name, name, "", result["points"], possible, "; ".join(result["flags"])]
                    for name, result in sorted(graded.items())])
 

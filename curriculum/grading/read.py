@@ -38,8 +38,7 @@ def roster(path: Path) -> list:
     with open(path, encoding="utf-8-sig", newline="") as file:
         ids = [unicodedata.normalize("NFC", row[0].strip()) for row in csv.reader(file) if row and row[0].strip()]
     ids = ids[1:] if ids and ids[0].lower() in ("id", "student", "login", "username", "email") else ids
-    twice = sorted({i for i in ids if ids.count(i) > 1})
-    if twice:
+    if twice := sorted({i for i in ids if ids.count(i) > 1}):
         raise ValueError(f"--roster lists {', '.join(map(shown, twice))} more than once")
     return ids
 
