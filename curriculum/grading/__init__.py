@@ -19,11 +19,10 @@ from curriculum.common import exercise
 from curriculum.common.cli import OneLineParser, shown
 from curriculum.common.exercise import EXERCISES
 from curriculum.common.outputs import folder_problem, write_atomic
-from curriculum.grading import read, recheck, score
+from curriculum.grading import read, score
+from curriculum.grading.read import FILES
 
 FORMULA = ("=", "+", "-", "@")
-FILES = {"csv": ["grades.csv", "gradebook.csv", "summary.txt"], "gradescope": ["results.json"],
-         "classroom": ["classroom.json"]}
 
 
 def main(argv) -> int:
@@ -44,7 +43,6 @@ def main(argv) -> int:
     if problem := folder_problem(args.out, FILES[args.format]):
         parser.error(f"--out: {problem}")
     found = exercise.exercises(EXERCISES)
-    recheck.snapshot()  # the checker's files, read before any student's code runs
     wanted = ["journal.jsonl", *(f"{module}.py" for _, module, kind in found if kind == "code")]
     try:
         roster = read.roster(args.roster) if args.roster else None

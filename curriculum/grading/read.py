@@ -20,7 +20,8 @@ from curriculum.common.cli import shown
 
 ARCHIVES = (".zip", ".tar.gz", ".tgz", ".tar.bz2", ".tar.xz", ".tar")
 MAX_UPLOAD, MAX_UNPACKED = 64_000_000, 32_000_000
-OURS = {"grades.csv", "gradebook.csv", "summary.txt", "results.json", "classroom.json"}  # the grader's own output
+FILES = {"csv": ["grades.csv", "gradebook.csv", "summary.txt"], "gradescope": ["results.json"],  # the grader's,
+         "classroom": ["classroom.json"]}  # for each --format: a folder holding one is no student's
 
 
 class Refused(Exception):
@@ -57,7 +58,7 @@ def submissions(path: Path, wanted: list, out: Path) -> tuple[dict, list]:
     for entry in sorted(os.scandir(path), key=lambda entry: entry.name):
         why = ("a link, never followed" if entry.is_symlink() else
                "the grader's own output" if os.path.realpath(entry.path) == os.path.realpath(out) or
-               entry.is_dir() and OURS & set(os.listdir(entry.path)) else
+               entry.is_dir() and {*sum(FILES.values(), [])} & {*os.listdir(entry.path)} else
                None if entry.is_dir() or entry.name.lower().endswith(ARCHIVES) else "not a folder or an archive")
         if why:
             skipped.append((entry.name, why))

@@ -37,9 +37,8 @@ def check(module: str, data: bytes | None) -> tuple[bool, str]:
         return False, "the untouched stub"
     user = unprivileged()
     with tempfile.TemporaryDirectory(prefix="grading-") as scratch:
-        root = Path(scratch)
-        os.chmod(root, 0o755)  # readable by `nobody`, writable by no student's code
-        copy, work = root / "course", root / "work"
+        os.chmod(scratch, 0o755)  # readable by `nobody`, writable by no student's code
+        copy, work = Path(scratch, "course"), Path(scratch, "work")
         for relative, content in snapshot().items():
             (copy / relative).parent.mkdir(parents=True, exist_ok=True)
             (copy / relative).write_bytes(content)

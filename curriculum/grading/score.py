@@ -20,8 +20,7 @@ def truths() -> dict:
     """{exercise: ANSWERS.md's graded answer, as the journal stores answers: a dict, a sorted list, an int or a str}."""
     text, found = (SOLUTIONS / "ANSWERS.md").read_text(encoding="utf-8"), {}
     for number, body in re.findall(r"^## Exercise (\d+)\b(.*?)(?=^## |\Z)", text, flags=re.M | re.S):
-        said = re.search(r"The graded answer is `([^`]+)`", body)
-        if said:
+        if said := re.search(r"The graded answer is `([^`]+)`", body):
             items = [item.strip() for item in said[1].split(",")]
             value = lambda v: int(v) if v.isdigit() else v  # noqa: E731
             found[int(number)] = dict((k.strip(), value(v.strip())) for k, v in (i.split("=") for i in items)) \
@@ -34,8 +33,7 @@ def marked(answer, truth) -> tuple[int, int] | None:
     if truth is None:
         return None
     if isinstance(truth, dict):
-        return (sum(answer.get(k) == v for k, v in truth.items()), len(truth)) if isinstance(answer, dict) else \
-            (0, len(truth))
+        return sum(isinstance(answer, dict) and answer.get(k) == v for k, v in truth.items()), len(truth)
     truth = [truth] if isinstance(answer, list) and not isinstance(truth, list) else truth
     return int(answer == truth), 1
 
@@ -92,12 +90,11 @@ def _row(student, book, files, titles, known, due, number, module, kind) -> dict
         moment = (moment if moment.tzinfo else moment.replace(tzinfo=datetime.UTC)).astimezone(datetime.UTC)
     except ValueError:  # a hand-written time: shown as written, never late
         moment = None
-    late = due and moment and moment > due
     row |= {"question": first["question"], "first_prediction": said(first["answer"]), "reason": first["because"],
             "first_time_utc": moment.isoformat() if moment else first["t"], "points": 1,
             "attempts": sum(r["question"] == first["question"] for r in predictions),
             "right": score[0] if score else "", "items": score[1] if score else "",
-            "flag": "late" if late else ""}
+            "flag": "late" if due and moment and moment > due else ""}
     row["detail"] = (f"first prediction {row['first_time_utc']}: {row['first_prediction']}"
                      + (f" ({score[0]} of {score[1]} right)" if score else "") + f"; {row['attempts']} attempt(s)")
     return row
