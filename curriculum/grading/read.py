@@ -71,20 +71,23 @@ def submissions(path: Path, wanted: list, out: Path) -> tuple[dict, list]:
 
 
 def _read(path: Path, wanted: list) -> dict:
-    """{name: bytes or None} for each wanted name at exercises/NAME or NAME, under one top folder too (GitHub's)."""
+    """{name: bytes or None} for each wanted name at exercises/NAME or NAME, under the folder all files share if
+    they share one (GitHub's downloads have one top folder)."""
     try:
         if not path.is_dir() and path.stat().st_size > MAX_UPLOAD:
             raise Refused(f"{shown(path.name)} is over {MAX_UPLOAD // 1_000_000} MB: refused")
-        members, names = {}, []
+        members, folders = {}, []
         for name, size, content in _folder(path) if path.is_dir() else _zip(path) if zipfile.is_zipfile(path) \
                 else _tar(path):
-            names.append(name)
+            folders.append(os.path.dirname(name))
             if name.rpartition("/")[2] in wanted:
                 if size > journal.MAX_BYTES:
                     raise Refused(f"{shown(name)} is over {journal.MAX_BYTES // 1_000_000} MB, more than a hand-in"
                                   " holds: refused")
                 members[name] = content()
-        return _pick(members, names, wanted) | {"problem": None}
+        top = os.path.commonpath(folders or [""])
+        return {want: members.get(os.path.join(top, "exercises", want), members.get(os.path.join(top, want)))
+                for want in wanted} | {"problem": None}
     except Refused as refused:
         return dict.fromkeys(wanted) | {"problem": str(refused)}
     except Exception as error:  # noqa: BLE001 (one hand-in's damage, whatever its kind, is its flag; the class goes on)
@@ -121,11 +124,3 @@ def _tar(path: Path):
         for member in bundle:
             if member.isfile():  # no links, devices or folders
                 yield member.name, member.size, lambda member=member: bundle.extractfile(member).read()
-
-
-def _pick(members: dict, names: list, wanted: list) -> dict:
-    parts = {name: name.split("/") for name in names if not name.startswith("/") and ".." not in name.split("/")}
-    tops = {p[0] for p in parts.values() if len(p) > 1}
-    top = [tops.pop()] if len(tops) == 1 and all(len(p) > 1 for p in parts.values()) else []
-    return {want: next((members.get(n) for n, p in parts.items() if p in ([*top, "exercises", want], [*top, want])),
-                       None) for want in wanted}
