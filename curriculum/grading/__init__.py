@@ -85,10 +85,9 @@ def cell(value):
     return f"'{text}" if text.lstrip().startswith(FORMULA) else text
 
 
-def _table(header: list, rows: list) -> str:
+def _table(header: list, rows: list) -> str:  # RFC 4180's line end (a field holding one is quoted anyway)
     text = io.StringIO()
-    table = csv.writer(text, lineterminator="\r\n")  # RFC 4180's line end: a field holding one is quoted anyway
-    table.writerows([[cell(value) for value in row] for row in [header, *rows]])
+    csv.writer(text, lineterminator="\r\n").writerows([[cell(value) for value in row] for row in [header, *rows]])
     return text.getvalue()
 
 
