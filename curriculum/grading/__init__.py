@@ -39,14 +39,13 @@ def main(argv) -> int:
     args.due = args.due and (args.due if args.due.tzinfo else args.due.replace(tzinfo=datetime.UTC))
     if not args.grade.strip():
         parser.error("--grade: the path is empty: give the folder or archive to grade")
-    args.grade = Path(args.grade)
     if problem := folder_problem(args.out, FILES[args.format]):
         parser.error(f"--out: {problem}")
     found = exercise.exercises(EXERCISES)
     wanted = ["journal.jsonl", *(f"{module}.py" for _, module, kind in found if kind == "code")]
     try:
         roster = read.roster(args.roster) if args.roster else None
-        submissions, skipped = read.submissions(args.grade, wanted, args.out)
+        submissions, skipped = read.submissions(Path(args.grade), wanted, args.out)
     except (OSError, ValueError) as error:
         parser.error(f"--grade: {error.strerror if isinstance(error, OSError) else error}")
     if args.format != "csv":  # one platform run: a bad upload still gets its results file, with 0 and why

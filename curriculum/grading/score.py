@@ -102,15 +102,11 @@ def _row(student, book, files, titles, known, due, number, module, kind) -> dict
 
 def _copies(graded: dict) -> None:
     """Students sharing more than one journal line (a planted line alone flags nobody) are named to each other."""
-    owners = collections.defaultdict(set)
+    chains = {name: {r["chain"] for r in result["book"].records} if result["book"] else set()
+              for name, result in graded.items()}
     for name, result in graded.items():
-        for record in result["book"].records if result["book"] else []:
-            owners[record["chain"]].add(name)
-    for name, result in graded.items():
-        shared = collections.Counter(other for r in (result["book"].records if result["book"] else [])
-                                     for other in owners[r["chain"]] - {name})
-        result["flags"] += [f"shares {n} journal lines with {other}: one is a copy" for other, n in
-                            sorted(shared.items()) if n > 1]
+        result["flags"] += [f"shares {n} journal lines with {other}: one is a copy" for other in sorted(chains)
+                            if other != name and (n := len(chains[name] & chains[other])) > 1]
 
 
 def summary(graded: dict, found: list) -> str:
