@@ -44,7 +44,7 @@ def said(answer) -> str:
 
 
 def grade(submissions: dict, found: list, due) -> dict:
-    titles, known, graded = exercise.titles(EXERCISES), truths(), {}
+    titles, known, graded, chains = exercise.titles(EXERCISES), truths(), {}, {}
     for name, files in submissions.items():
         data = files["journal.jsonl"]
         book = journal.read(data) if data is not None else None  # None: no journal (one over 4 MB is refused)
@@ -55,7 +55,10 @@ def grade(submissions: dict, found: list, due) -> dict:
                  late and f"late: the first prediction of exercise {', '.join(late)} came after --due"]
         graded[name] = {"rows": rows, "book": book, "flags": [f for f in flags if f],
                         "points": sum(r["points"] for r in rows)}
-    _copies(graded)
+        chains[name] = {r["chain"] for r in book.records} if book else set()
+    for name, result in graded.items():  # more than one line shared: a copy (a planted line alone flags nobody)
+        result["flags"] += [f"shares {n} journal lines with {other}: one is a copy" for other in sorted(chains)
+                            if other != name and (n := len(chains[name] & chains[other])) > 1]
     return graded
 
 
@@ -98,15 +101,6 @@ def _row(student, book, files, titles, known, due, number, module, kind) -> dict
     row["detail"] = (f"first prediction {row['first_time_utc']}: {row['first_prediction']}"
                      + (f" ({score[0]} of {score[1]} right)" if score else "") + f"; {row['attempts']} attempt(s)")
     return row
-
-
-def _copies(graded: dict) -> None:
-    """Students sharing more than one journal line (a planted line alone flags nobody) are named to each other."""
-    chains = {name: {r["chain"] for r in result["book"].records} if result["book"] else set()
-              for name, result in graded.items()}
-    for name, result in graded.items():
-        result["flags"] += [f"shares {n} journal lines with {other}: one is a copy" for other in sorted(chains)
-                            if other != name and (n := len(chains[name] & chains[other])) > 1]
 
 
 def summary(graded: dict, found: list) -> str:
