@@ -88,11 +88,9 @@ def _read(path: Path, wanted: list) -> dict:
         top = os.path.commonpath(folders or [""])
         return {want: members.get(os.path.join(top, "exercises", want), members.get(os.path.join(top, want)))
                 for want in wanted} | {"problem": None}
-    except Refused as refused:
-        return dict.fromkeys(wanted) | {"problem": str(refused)}
     except Exception as error:  # noqa: BLE001 (one hand-in's damage, whatever its kind, is its flag; the class goes on)
-        return dict.fromkeys(wanted) | {"problem": f"{shown(path.name)} could not be read (truncated, or not a zip"
-                                                   f" or a tar: {type(error).__name__})"}
+        why = f"{shown(path.name)} could not be read (truncated, or not a zip or a tar: {type(error).__name__})"
+        return dict.fromkeys(wanted) | {"problem": str(error) if isinstance(error, Refused) else why}
 
 
 def _folder(path: Path):
