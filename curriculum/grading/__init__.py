@@ -17,10 +17,8 @@ from pathlib import Path
 
 from curriculum.common import exercise
 from curriculum.common.cli import OneLineParser, shown
-from curriculum.common.exercise import EXERCISES
 from curriculum.common.outputs import folder_problem, write_atomic
 from curriculum.grading import read, score
-from curriculum.grading.read import FILES
 
 FORMULA = ("=", "+", "-", "@")
 
@@ -29,7 +27,7 @@ def main(argv) -> int:
     parser = OneLineParser(prog="python -m exercises", description=__doc__.split("\n\n")[0],
                            formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__.split("\n\n", 2)[2])
     parser.add_argument("--grade", type=str, metavar="PATH", required=True, help="a submission, or a folder of them")
-    parser.add_argument("--format", choices=FILES, default="csv", help="--grade's output (default csv)")
+    parser.add_argument("--format", choices=read.FILES, default="csv", help="--grade's output (default csv)")
     parser.add_argument("--out", type=Path, default=Path("outputs"), help="--grade's folder (default outputs)")
     parser.add_argument("--roster", type=Path, metavar="FILE", help="the class's ids, one a line (a CSV's first"
                         " column): each id gets a row, and an id with no submission is listed")
@@ -39,9 +37,9 @@ def main(argv) -> int:
     args.due = args.due and (args.due if args.due.tzinfo else args.due.replace(tzinfo=datetime.UTC))
     if not args.grade.strip():
         parser.error("--grade: the path is empty: give the folder or archive to grade")
-    if problem := folder_problem(args.out, FILES[args.format]):
+    if problem := folder_problem(args.out, read.FILES[args.format]):
         parser.error(f"--out: {problem}")
-    found = exercise.exercises(EXERCISES)
+    found = exercise.exercises(exercise.EXERCISES)
     wanted = ["journal.jsonl", *(f"{module}.py" for _, module, kind in found if kind == "code")]
     try:
         roster = read.roster(args.roster) if args.roster else None
@@ -53,7 +51,7 @@ def main(argv) -> int:
         graded = score.grade(submissions, found, args.due) if len(submissions) == 1 else {"upload": score.missing(
             "upload", found, f"Upload the one zip `python -m exercises --handin` writes (outputs/handin.zip); this"
                              f" upload holds {upload}.")}
-        files, summary = {FILES[args.format][0]: platform(args.format, graded, len(found))}, ""
+        files, summary = {read.FILES[args.format][0]: platform(args.format, graded, len(found))}, ""
     else:
         if not submissions and not roster:
             parser.error(f"--grade: {shown(args.grade, 100)} holds no submission (a folder, a zip or a tar)")
@@ -63,7 +61,7 @@ def main(argv) -> int:
         for name in sorted(set(graded) - set(roster or graded)):
             graded[name]["flags"].append("not on the roster")
         summary = score.summary(graded, found)
-        files = dict(zip(FILES["csv"], (grades(graded), gradebook(graded, len(found)), summary), strict=True))
+        files = dict(zip(read.FILES["csv"], (grades(graded), gradebook(graded, len(found)), summary), strict=True))
     for name, data in files.items():
         write_atomic(args.out / name, data)
     print(f"{len(graded)} student(s), {len(found)} points each: {', '.join(shown(args.out / f, 100) for f in files)}")

@@ -8,12 +8,11 @@ import re
 import curriculum.grading.recheck as recheck
 from curriculum.common import exercise, journal
 from curriculum.common.cli import shown
-from curriculum.common.exercise import EXERCISES
 
 POINT = ("A point is a prediction committed before its measurement, right or wrong, or a code exercise solved"
          " (checked again here). The journal is for learning, not proctoring: anyone can forge one; an edit or a"
          " copy within this batch is flagged, a careful forgery is not.")
-SOLUTIONS = EXERCISES / "solutions"
+SOLUTIONS = exercise.EXERCISES / "solutions"
 
 
 def truths() -> dict:
@@ -44,7 +43,7 @@ def said(answer) -> str:
 
 
 def grade(submissions: dict, found: list, due) -> dict:
-    titles, known, graded, chains = exercise.titles(EXERCISES), truths(), {}, {}
+    titles, known, graded, chains = exercise.titles(exercise.EXERCISES), truths(), {}, {}
     for name, files in submissions.items():
         data = files["journal.jsonl"]
         book = journal.read(data) if data is not None else None  # None: no journal (one over 4 MB is refused)
@@ -63,7 +62,7 @@ def grade(submissions: dict, found: list, due) -> dict:
 
 
 def missing(name: str, found: list, why: str = "no submission") -> dict:
-    titles = exercise.titles(EXERCISES)
+    titles = exercise.titles(exercise.EXERCISES)
     return {"rows": [_empty(name, number, titles.get(number, module)) | {"detail": why} for number, module, _ in found],
             "book": None, "flags": [why], "points": 0}
 
