@@ -79,7 +79,7 @@ def _read(path: Path, wanted: list) -> dict:
         members, folders = {}, []
         for name, size, content in _folder(path) if path.is_dir() else _zip(path) if zipfile.is_zipfile(path) \
                 else _tar(path):
-            folders.append(os.path.dirname(name))
+            folders.append(os.path.dirname(name.lstrip("/")))  # an absolute name: no top folder
             if name.rpartition("/")[2] in wanted:
                 if size > journal.MAX_BYTES:
                     raise Refused(f"{shown(name)} is over {journal.MAX_BYTES // 1_000_000} MB, more than a hand-in"
