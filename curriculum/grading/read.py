@@ -58,7 +58,7 @@ def submissions(path: Path, wanted: list, out: Path) -> tuple[dict, list]:
     for entry in sorted(os.scandir(path), key=lambda entry: entry.name):
         why = ("a link, never followed" if entry.is_symlink() else
                "the grader's own output" if os.path.realpath(entry.path) == os.path.realpath(out) or
-               entry.is_dir() and {*sum(FILES.values(), [])} & {*os.listdir(entry.path)} else
+               entry.is_dir() and {n for names in FILES.values() for n in names} & {*os.listdir(entry.path)} else
                None if entry.is_dir() or entry.name.lower().endswith(ARCHIVES) else "not a folder or an archive")
         if why:
             skipped.append((entry.name, why))
@@ -77,8 +77,8 @@ def _read(path: Path, wanted: list) -> dict:
         if not path.is_dir() and path.stat().st_size > MAX_UPLOAD:
             raise Refused(f"{shown(path.name)} is over {MAX_UPLOAD // 1_000_000} MB: refused")
         members, folders = {}, []
-        for name, size, content in _folder(path) if path.is_dir() else _zip(path) if zipfile.is_zipfile(path) \
-                else _tar(path):
+        entries = _folder(path) if path.is_dir() else _zip(path) if zipfile.is_zipfile(path) else _tar(path)
+        for name, size, content in entries:  # (name, size, a function giving its content)
             folders.append(os.path.dirname(name.lstrip("/")))  # an absolute name: no top folder
             if name.rpartition("/")[2] in wanted:
                 if size > journal.MAX_BYTES:
