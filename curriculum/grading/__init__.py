@@ -17,22 +17,17 @@ from pathlib import Path
 
 from curriculum.common import exercise
 from curriculum.common.cli import OneLineParser, shown
-from curriculum.common.exercise import EXERCISES
 from curriculum.common.outputs import folder_problem, write_atomic
-from curriculum.grading import read, recheck, score
+from curriculum.grading import read, score
 
-CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]+")
 FORMULA = ("=", "+", "-", "@")
-GRADE_ITEM = "Chapter 3.3 exercises"
-FILES = {"csv": ["grades.csv", "gradebook.csv", "summary.txt"], "gradescope": ["results.json"],
-         "classroom": ["classroom.json"]}
 
 
 def main(argv) -> int:
     parser = OneLineParser(prog="python -m exercises", description=__doc__.split("\n\n")[0],
                            formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__.split("\n\n", 2)[2])
     parser.add_argument("--grade", type=str, metavar="PATH", required=True, help="a submission, or a folder of them")
-    parser.add_argument("--format", choices=FILES, default="csv", help="--grade's output (default csv)")
+    parser.add_argument("--format", choices=read.FILES, default="csv", help="--grade's output (default csv)")
     parser.add_argument("--out", type=Path, default=Path("outputs"), help="--grade's folder (default outputs)")
     parser.add_argument("--roster", type=Path, metavar="FILE", help="the class's ids, one a line (a CSV's first"
                         " column): each id gets a row, and an id with no submission is listed")
@@ -42,46 +37,40 @@ def main(argv) -> int:
     args.due = args.due and (args.due if args.due.tzinfo else args.due.replace(tzinfo=datetime.UTC))
     if not args.grade.strip():
         parser.error("--grade: the path is empty: give the folder or archive to grade")
-    args.grade = Path(args.grade)
-    problem = folder_problem(args.out, FILES[args.format])
-    if problem:
+    if problem := folder_problem(args.out, read.FILES[args.format]):
         parser.error(f"--out: {problem}")
-    found = exercise.exercises(EXERCISES)
-    recheck.snapshot()  # the checker's files, read before any student's code runs
+    found = exercise.exercises(exercise.EXERCISES)
     wanted = ["journal.jsonl", *(f"{module}.py" for _, module, kind in found if kind == "code")]
     try:
         roster = read.roster(args.roster) if args.roster else None
-        submissions, skipped = read.submissions(args.grade, wanted, args.out)
+        submissions, skipped = read.submissions(Path(args.grade), wanted, args.out)
     except (OSError, ValueError) as error:
         parser.error(f"--grade: {error.strerror if isinstance(error, OSError) else error}")
     if args.format != "csv":  # one platform run: a bad upload still gets its results file, with 0 and why
-        graded = score.one(submissions, skipped, found, args.due)
-        write_atomic(args.out / FILES[args.format][0], platform(args.format, graded, len(found)))
-        print_class(graded, skipped, found, args.out / FILES[args.format][0])
-        return 0
-    if not submissions and not roster:
-        parser.error(f"--grade: {shown(args.grade, 100)} holds no submission (a folder, a zip or a tar)")
-    graded = score.grade(submissions, found, args.due)
-    for name in sorted(set(roster or []) - set(graded)):
-        graded[name] = score.missing(name, found)
-    for name in sorted(set(graded) - set(roster or graded)):
-        graded[name]["flags"].append("not on the roster")
-    summary = score.summary(graded, found)
-    files = dict(zip(FILES["csv"], (grades(graded), gradebook(graded, len(found)), summary), strict=True))
+        upload = ", ".join(sorted([*submissions, *(name for name, _ in skipped)])) or "nothing"
+        graded = score.grade(submissions, found, args.due) if len(submissions) == 1 else {"upload": score.missing(
+            "upload", found, f"Upload the one zip `python -m exercises --handin` writes (outputs/handin.zip); this"
+                             f" upload holds {upload}.")}
+        files, summary = {read.FILES[args.format][0]: platform(args.format, graded, len(found))}, ""
+    else:
+        if not submissions and not roster:
+            parser.error(f"--grade: {shown(args.grade, 100)} holds no submission (a folder, a zip or a tar)")
+        graded = score.grade(submissions, found, args.due)
+        for name in sorted(set(roster or []) - set(graded)):
+            graded[name] = score.missing(name, found)
+        for name in sorted(set(graded) - set(roster or graded)):
+            graded[name]["flags"].append("not on the roster")
+        summary = score.summary(graded, found)
+        files = dict(zip(read.FILES["csv"], (grades(graded), gradebook(graded, len(found)), summary), strict=True))
     for name, data in files.items():
         write_atomic(args.out / name, data)
-    print_class(graded, skipped, found, *(args.out / name for name in files))
-    print(summary, end="")
-    return 0
-
-
-def print_class(graded: dict, skipped: list, found: list, *written: Path) -> None:
-    print(f"{len(graded)} student(s), {len(found)} points each: {', '.join(shown(p, 100) for p in written)}")
+    print(f"{len(graded)} student(s), {len(found)} points each: {', '.join(shown(args.out / f, 100) for f in files)}")
     for name, result in graded.items():
         print(f"  {shown(name, 30):<30}{result['points']:>3}  {shown('; '.join(result['flags']), 500)}")
     for name, why in skipped:
         print(f"  skipped {shown(name, 60)}: {why}")
-    print(score.POINT, flush=True)
+    print(score.POINT, summary, sep="\n", end="", flush=True)
+    return 0
 
 
 # --- what it writes: every CSV cell spreadsheet-safe ---
@@ -89,16 +78,13 @@ def print_class(graded: dict, skipped: list, found: list, *written: Path) -> Non
 
 def cell(value):
     """As text in any spreadsheet: controls (line ends too) a space, lone surrogates U+FFFD, a formula start '-led."""
-    if isinstance(value, int):
-        return value
-    text = CONTROL.sub(" ", str(value)).encode("utf-8", "replace").decode()
+    text = re.sub(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]+", " ", str(value)).encode("utf-8", "replace").decode()
     return f"'{text}" if text.lstrip().startswith(FORMULA) else text
 
 
-def _table(header: list, rows: list) -> str:
+def _table(header: list, rows: list) -> str:  # RFC 4180's line end (a field holding one is quoted anyway)
     text = io.StringIO()
-    table = csv.writer(text, lineterminator="\r\n")  # RFC 4180's line end: a field holding one is quoted anyway
-    table.writerows([[cell(value) for value in row] for row in [header, *rows]])
+    csv.writer(text, lineterminator="\r\n").writerows([[cell(value) for value in row] for row in [header, *rows]])
     return text.getvalue()
 
 
@@ -111,7 +97,7 @@ def grades(graded: dict) -> str:
 
 def gradebook(graded: dict, possible: int) -> str:
     """One row per student, as Canvas's and Moodle's gradebook imports take it (docs/TEACHING.md)."""
-    return _table(["Student", "SIS Login ID", "Section", GRADE_ITEM, "Points Possible", "Flags"],
+    return _table(["Student", "SIS Login ID", "Section", "Chapter 3.3 exercises", "Points Possible", "Flags"],
                   [[name, name, "", result["points"], possible, "; ".join(result["flags"])]
                    for name, result in sorted(graded.items())])
 

@@ -4,7 +4,6 @@ root and can. Back comes the verdict: never what the code printed, nor an error'
 
 import contextlib
 import functools
-import hashlib
 import json
 import os
 import pwd
@@ -19,7 +18,7 @@ from curriculum.common.exercise import EXERCISE_FILE, EXERCISES
 COURSE = EXERCISES.parent
 NEEDED = ["engine*.py", "curriculum/__init__.py", "curriculum/common", "exercises"]  # not the grader, tests, outputs
 TIME_LIMIT = 300  # seconds for a whole check (the checker limits each part of the child's run to 20 s)
-DRIVER = """import json, sys; sys.path.insert(0, sys.argv[1]); from pathlib import Path
+DRIVER = """import json, sys; sys.path.insert(0, sys.argv[1]); from pathlib import Path  # argv[2]: in the cwd
 from curriculum.common import student_code
 from exercises import check_ex{n} as checker
 student_code.error_sentence = lambda e, f=student_code.error_sentence: f({{**e, "message": ""}})
@@ -29,36 +28,22 @@ print("\\nVERDICT " + json.dumps({{"parts": parts, "messages": messages}}))
 """
 
 
+@functools.cache
 def check(module: str, data: bytes | None) -> tuple[bool, str]:
-    """(solved, what the checker said) for a handed-in file; the same bytes give the same verdict (cached)."""
+    """(solved, what the checker said) for a handed-in file; the same bytes give the same verdict, checked once."""
     if data is None:
         return False, f"no {module}.py handed in"
     if data == (EXERCISES / "support" / "pristine" / f"{module}.py").read_bytes():
         return False, "the untouched stub"
-    return _check(module, hashlib.sha256(data).hexdigest(), data)
-
-
-@functools.cache
-def snapshot() -> dict:
-    """{path: bytes} of what a checker needs, read once before any student's code runs."""
-    return {str(path.relative_to(COURSE)): path.read_bytes() for pattern in NEEDED for part in COURSE.glob(pattern)
-            for path in ([part] if part.is_file() else sorted(part.rglob("*.py")) + sorted(part.rglob("*.md")))
-            if "__pycache__" not in path.parts and ".before-reset-" not in path.name}
-
-
-@functools.cache
-def _check(module: str, _digest: str, data: bytes) -> tuple[bool, str]:
     user = unprivileged()
     with tempfile.TemporaryDirectory(prefix="grading-") as scratch:
-        root = Path(scratch)
-        os.chmod(root, 0o755)  # readable by `nobody`, writable by no student's code
-        copy, mine, work = root / "course", root / "submitted" / f"{module}.py", root / "work"
+        os.chmod(scratch, 0o755)  # readable by `nobody`, writable by no student's code
+        copy, work = Path(scratch, "course"), Path(scratch, "work")
         for relative, content in snapshot().items():
             (copy / relative).parent.mkdir(parents=True, exist_ok=True)
             (copy / relative).write_bytes(content)
-        mine.parent.mkdir()
-        mine.write_bytes(data)
         work.mkdir(mode=0o700)
+        (work / f"{module}.py").write_bytes(data)
         if user:
             os.chown(work, user.pw_uid, user.pw_gid)
         env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(work), "TMPDIR": str(work),
@@ -66,7 +51,7 @@ def _check(module: str, _digest: str, data: bytes) -> tuple[bool, str]:
                **{k: v for k, v in os.environ.items() if k == "LD_LIBRARY_PATH"}}  # a Python that needs it
         drop = {"user": user.pw_uid, "group": user.pw_gid, "extra_groups": []} if user else {}
         child = subprocess.Popen([sys.executable, "-I", "-c", DRIVER.format(n=EXERCISE_FILE.fullmatch(
-            f"{module}.py")[1]), str(copy), str(mine)], cwd=work, env=env, stdin=subprocess.DEVNULL,
+            f"{module}.py")[1]), str(copy), f"{module}.py"], cwd=work, env=env, stdin=subprocess.DEVNULL,
             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, start_new_session=True, **drop)
         try:
             out = child.communicate(timeout=TIME_LIMIT)[0]
@@ -86,17 +71,23 @@ def _check(module: str, _digest: str, data: bytes) -> tuple[bool, str]:
 
 
 @functools.cache
+def snapshot() -> dict:
+    """{path: bytes} of what a checker needs, read once before any student's code runs."""
+    return {str(path.relative_to(COURSE)): path.read_bytes() for pattern in NEEDED for part in COURSE.glob(pattern)
+            for path in ([part] if part.is_file() else sorted(part.rglob("*.py")) + sorted(part.rglob("*.md")))
+            if "__pycache__" not in path.parts and ".before-reset-" not in path.name}
+
+
+@functools.cache
 def unprivileged():
     """`nobody`'s passwd entry if the grader is root and `nobody` can run this Python with numpy, else None."""
     if os.geteuid() != 0:
         return None
-    try:
+    with contextlib.suppress(KeyError, OSError, subprocess.SubprocessError):
         user = pwd.getpwnam("nobody")
         if subprocess.run([sys.executable, "-I", "-c", "import numpy"], user=user.pw_uid, group=user.pw_gid,
                           extra_groups=[], cwd="/", capture_output=True, timeout=120).returncode == 0:
             return user
-    except (KeyError, OSError, subprocess.SubprocessError):
-        pass
     print(f"note: the user nobody cannot run {sys.executable} (a private folder on its path?), so students' code"
           " runs as root: grade in a container (docs/TEACHING.md)", file=sys.stderr)
     return None

@@ -2,27 +2,24 @@
 prediction (resets included), `right` recomputed from the stored answer against ANSWERS.md's graded answer."""
 
 import collections
-import contextlib
 import datetime
 import re
 
 import curriculum.grading.recheck as recheck
 from curriculum.common import exercise, journal
 from curriculum.common.cli import shown
-from curriculum.common.exercise import EXERCISES
 
 POINT = ("A point is a prediction committed before its measurement, right or wrong, or a code exercise solved"
          " (checked again here). The journal is for learning, not proctoring: anyone can forge one; an edit or a"
          " copy within this batch is flagged, a careful forgery is not.")
-SOLUTIONS = EXERCISES / "solutions"
+SOLUTIONS = exercise.EXERCISES / "solutions"
 
 
 def truths() -> dict:
     """{exercise: ANSWERS.md's graded answer, as the journal stores answers: a dict, a sorted list, an int or a str}."""
     text, found = (SOLUTIONS / "ANSWERS.md").read_text(encoding="utf-8"), {}
     for number, body in re.findall(r"^## Exercise (\d+)\b(.*?)(?=^## |\Z)", text, flags=re.M | re.S):
-        said = re.search(r"The graded answer is `([^`]+)`", body)
-        if said:
+        if said := re.search(r"The graded answer is `([^`]+)`", body):
             items = [item.strip() for item in said[1].split(",")]
             value = lambda v: int(v) if v.isdigit() else v  # noqa: E731
             found[int(number)] = dict((k.strip(), value(v.strip())) for k, v in (i.split("=") for i in items)) \
@@ -35,8 +32,7 @@ def marked(answer, truth) -> tuple[int, int] | None:
     if truth is None:
         return None
     if isinstance(truth, dict):
-        return (sum(answer.get(k) == v for k, v in truth.items()), len(truth)) if isinstance(answer, dict) else \
-            (0, len(truth))
+        return sum(isinstance(answer, dict) and answer.get(k) == v for k, v in truth.items()), len(truth)
     truth = [truth] if isinstance(answer, list) and not isinstance(truth, list) else truth
     return int(answer == truth), 1
 
@@ -47,33 +43,26 @@ def said(answer) -> str:
 
 
 def grade(submissions: dict, found: list, due) -> dict:
-    titles, known, graded = exercise.titles(EXERCISES), truths(), {}
+    titles, known, graded, chains = exercise.titles(exercise.EXERCISES), truths(), {}, {}
     for name, files in submissions.items():
         data = files["journal.jsonl"]
-        book = journal.read(data) if data is not None and len(data) <= journal.MAX_BYTES else None
+        book = journal.read(data) if data is not None else None  # None: no journal (one over 4 MB is refused)
         rows = [_row(name, book, files, titles, known, due, *item) for item in found]
         late = [str(r["exercise"]) for r in rows if r["flag"] == "late"]
-        flags = [files["problem"], None if book or files["problem"] else "no journal" if data is None else
-                 f"a journal over {journal.MAX_BYTES // 1_000_000} MB: not read", *(book.notes() if book else []),
+        flags = [files["problem"] or not book and "no journal", *(book.notes() if book else []),
                  *(f"exercise {r['exercise']}: {r['flag']}" for r in rows if r["flag"] and r["flag"] != "late"),
                  late and f"late: the first prediction of exercise {', '.join(late)} came after --due"]
         graded[name] = {"rows": rows, "book": book, "flags": [f for f in flags if f],
                         "points": sum(r["points"] for r in rows)}
-    _copies(graded)
+        chains[name] = {r["chain"] for r in book.records} if book else set()
+    for name, result in graded.items():  # more than one line shared: a copy (a planted line alone flags nobody)
+        result["flags"] += [f"shares {n} journal lines with {other}: one is a copy" for other in sorted(chains)
+                            if other != name and (n := len(chains[name] & chains[other])) > 1]
     return graded
 
 
-def one(submissions: dict, skipped: list, found: list, due) -> dict:
-    """A platform's one submission, graded; for an upload that is not one, 0 and what to upload."""
-    if len(submissions) == 1:
-        return grade(submissions, found, due)
-    upload = ", ".join(sorted([*submissions, *(name for name, _ in skipped)])) or "nothing"
-    return {"upload": missing("upload", found, f"Upload the one zip `python -m exercises --handin` writes"
-                                                f" (outputs/handin.zip); this upload holds {upload}.")}
-
-
 def missing(name: str, found: list, why: str = "no submission") -> dict:
-    titles = exercise.titles(EXERCISES)
+    titles = exercise.titles(exercise.EXERCISES)
     return {"rows": [_empty(name, number, titles.get(number, module)) | {"detail": why} for number, module, _ in found],
             "book": None, "flags": [why], "points": 0}
 
@@ -89,44 +78,28 @@ def _row(student, book, files, titles, known, due, number, module, kind) -> dict
     if kind == "code":
         data = files[f"{module}.py"]
         solved, detail = recheck.check(module, data)
-        copy = data is not None and data == (SOLUTIONS / f"{module}.py").read_bytes()
-        checks = [r for r in mine if r["kind"] == "check" and r["own"]]
-        return row | {"attempts": len(checks), "solved": "yes" if solved else "no", "points": int(solved),
-                      "detail": detail, "flag": "the file is the course's solution, byte for byte" if copy else ""}
+        copy = data == (SOLUTIONS / f"{module}.py").read_bytes()
+        return row | {"attempts": sum(r["kind"] == "check" and r["own"] for r in mine), "points": int(solved),
+                      "solved": "yes" if solved else "no", "detail": detail,
+                      "flag": "the file is the course's solution, byte for byte" if copy else ""}
     predictions = [r for r in mine if r["kind"] == "predict"]
     if not predictions:
         return row | {"detail": "no prediction recorded"}
     first = predictions[0]
     score = marked(first["answer"], known.get(number))
-    moment = _utc(first["t"])
-    late = due and moment and moment > due
+    try:
+        moment = datetime.datetime.fromisoformat(first["t"])
+        moment = (moment if moment.tzinfo else moment.replace(tzinfo=datetime.UTC)).astimezone(datetime.UTC)
+    except ValueError:  # a hand-written time: shown as written, never late
+        moment = None
     row |= {"question": first["question"], "first_prediction": said(first["answer"]), "reason": first["because"],
             "first_time_utc": moment.isoformat() if moment else first["t"], "points": 1,
             "attempts": sum(r["question"] == first["question"] for r in predictions),
             "right": score[0] if score else "", "items": score[1] if score else "",
-            "flag": "late" if late else ""}
+            "flag": "late" if due and moment and moment > due else ""}
     row["detail"] = (f"first prediction {row['first_time_utc']}: {row['first_prediction']}"
                      + (f" ({score[0]} of {score[1]} right)" if score else "") + f"; {row['attempts']} attempt(s)")
     return row
-
-
-def _utc(stamp: str):
-    with contextlib.suppress(ValueError):
-        moment = datetime.datetime.fromisoformat(stamp)
-        return (moment if moment.tzinfo else moment.replace(tzinfo=datetime.UTC)).astimezone(datetime.UTC)
-
-
-def _copies(graded: dict) -> None:
-    """Students sharing more than one journal line (a planted line alone flags nobody) are named to each other."""
-    owners = collections.defaultdict(set)
-    for name, result in graded.items():
-        for record in result["book"].records if result["book"] else []:
-            owners[record["chain"]].add(name)
-    for name, result in graded.items():
-        shared = collections.Counter(other for r in (result["book"].records if result["book"] else [])
-                                     for other in owners[r["chain"]] - {name})
-        result["flags"] += [f"shares {n} journal lines with {other}: one is a copy" for other, n in
-                            sorted(shared.items()) if n > 1]
 
 
 def summary(graded: dict, found: list) -> str:
