@@ -178,8 +178,8 @@ def append(make, kept: str | None = None) -> dict | None:
 
 
 def checked(default: Path, path: Path, parts: dict) -> None:
-    """The checker's record of one check, then its last line: the board's Next line once the exercise's own file is
-    solved; a solved scratch file is to be copied there; else the check again."""
+    """The checker's record of one check, then its last line: the board's Next line once solved (saying so if the file
+    is not the exercise's own, which the board reads), else the check again."""
     number = int(exercise.EXERCISE_FILE.fullmatch(default.name).group(1))
     digest = hashlib.sha256(own_file(Path(path)) or b"").hexdigest()
     solved, own = bool(parts) and all(parts.values()), Path(path).resolve() == Path(default).resolve()
@@ -187,10 +187,8 @@ def checked(default: Path, path: Path, parts: dict) -> None:
     if interrupts.active():
         file = "" if Path(path) == Path(default) else f" {cli.shown(path, 100)}"
         if solved and not own:
-            print(f"Next: copy it to exercises/{default.name}, the file the board and the grade read, then python -m"
-                  f" exercises.check_ex{number}")
-        else:
-            print(next_line(number) if solved else f"Next: python -m exercises.check_ex{number}{file}")
+            print(f"(This file is not exercises/{default.name}, the one the board and the grade read.)")
+        print(next_line(number) if solved else f"Next: python -m exercises.check_ex{number}{file}")
 
 
 def next_line(number: int | None, book=None, found=None) -> str:
