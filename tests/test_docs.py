@@ -659,14 +659,15 @@ def test_a_students_page_reads_short(page, most_words):
 @pytest.mark.parametrize("command, pasted", answers_with_their_commands())
 def test_each_exercise_answers_with_a_short_lesson_then_the_next_line(command, pasted):
     """Without --more: the verdict, a lesson of at most LESSON_WORDS words (the same lesson --more starts with,
-    pasted in ANSWERS.md) and the Next line, last. Exercise 2's checker says "All solved." and then Next."""
+    pasted in ANSWERS.md) and the Next line, last. Exercise 2's checker says "All solved." (then, for a file that is not
+    the exercise's own, which one the board reads) and then Next."""
     argv = [word for word in shlex.split(command)[1:] if word != "--more"]
     result = subprocess.run([sys.executable, *argv], cwd=REPO, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0 and result.stderr == "", result.stderr
     lines = result.stdout.rstrip("\n").splitlines()
     assert lines[-1].startswith("Next: "), f"{command}: the run does not end with its Next line"
     if "check_ex" in command:
-        assert lines[-2] == "All solved.", command
+        assert "All solved." in lines[-3:-1], command
         return
     verdict = max(i for i, line in enumerate(lines) if line.startswith(("Right: ", "Not quite: ")))
     lesson = lines[verdict + 1:-1]
